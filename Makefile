@@ -1,0 +1,38 @@
+# The two commands: `make run` (set up, then a real calibration campaign) and `make test`.
+# Set-up installs only what is missing: Debian's liggghts and yade, a .venv with the CPU torch
+# wheel (pinned so that pip does not fetch CUDA builds), calibrax and its builtin backends.
+
+SHELL := /bin/bash
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.calibrax-installed
+SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
+TORCH := torch==2.13.0
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
+
+.PHONY: run test setup engines clean-runs
+
+run: setup
+	$(VENV)/bin/calibrax run examples/quickstart.yaml
+	$(VENV)/bin/calibrax status runs/quickstart.h5
+
+test: setup
+	$(PY) -m pytest -q
+
+setup: engines $(STAMP)
+
+engines:
+	@if ! command -v liggghts >/dev/null || ! command -v yade >/dev/null; then \
+		echo "installing the DEM engines liggghts and yade (Debian packages)"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts yade; \
+	fi
+
+$(STAMP): pyproject.toml plugins/numba_dem/pyproject.toml
+	test -x $(PY) || python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q $(TORCH)
+	$(PY) -m pip install -q $(TORCH) -e '.[dev,dask]' -e plugins/numba_dem
+	touch $(STAMP)
+
+clean-runs:
+	rm -rf runs

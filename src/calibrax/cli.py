@@ -1,0 +1,177 @@
+"""The ``calibrax`` command: parses, calls the library, prints. No logic of its own."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import logging
+import math
+import signal
+import sys
+import warnings
+from pathlib import Path
+
+import yaml
+
+EXAMPLES = """\
+examples:
+  calibrax run examples/quickstart.yaml            run (or resume) a campaign
+  calibrax run examples/quickstart.yaml --check    validate it and print the resolved settings
+  calibrax status runs/quickstart.h5               points, results and the best point so far
+  calibrax plugins                                 registered simulators, metrics, acquisitions…
+"""
+
+
+def _parser() -> argparse.ArgumentParser:
+    from calibrax import __version__
+
+    p = argparse.ArgumentParser(
+        prog="calibrax",
+        description="Calibrate DEM parameters (E, μs, …) against a measured FT4 shear test with Efficient "
+                    "Global Optimisation: a Kriging model and q-point Expected Improvement.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"calibrax {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    run = sub.add_parser("run", help="run or resume a calibration campaign",
+                         description="Run the campaign of CONFIG, or resume it from its store: finished "
+                                     "simulations are never repeated. Exit codes: 0 done, 2 bad input, "
+                                     "1 other error, 130 stopped (run again to resume).")
+    run.add_argument("config", type=Path, help="campaign YAML file (see README, 'Campaign file')")
+    run.add_argument("--check", action="store_true",
+                     help="validate CONFIG and every file it names, print the resolved settings, run nothing")
+    run.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
+    run.add_argument("-q", "--quiet", action="store_true", help="print only warnings and the final summary")
+
+    status = sub.add_parser("status", help="show a campaign store: points, results, best point",
+                            description="A table of every point of the store: parameters, status, C, AIF, "
+                                        "distance, wall time; then the best point.")
+    status.add_argument("store", type=Path, help="the campaign's HDF5 store")
+    status.add_argument("--json", action="store_true", help="print machine-readable JSON instead of a table")
+
+    sub.add_parser("plugins", help="list registered plugins and the broken ones",
+                   description="Every plugin by kind, with its name, version and distribution; plugins that "
+                               "failed to load are listed with their error.")
+    return p
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from calibrax.core.campaign import run_campaign
+    from calibrax.core.config import load_config
+    from calibrax.errors import ConfigError
+
+    config = load_config(args.config)
+    if args.workers is not None:
+        if args.workers < 1:
+            raise ConfigError("--workers", f"must be ≥ 1, got {args.workers}")
+        config = dataclasses.replace(config, executor_options={**config.executor_options, "workers": args.workers})
+    if args.check:
+        spec = config.spec
+        print(yaml.safe_dump(config.resolved, sort_keys=False, allow_unicode=True), end="")
+        print(f"# cell: {spec.particle_count} particles, {spec.particles_per_diameter:.1f} per diameter, "
+              f"Δt = {spec.time_step:.3g} s ({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
+              f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
+        exp = config.experiment
+        locus = exp.locus()
+        print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
+              f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
+        print("# OK: nothing was run or written")
+        return 0
+    summary = run_campaign(config)
+    print(f"campaign {config.name}: {summary.points} points, {summary.done} done, {summary.failed} failed; "
+          f"store {summary.store}")
+    if summary.best_id is not None:
+        params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
+        print(f"best: point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
+              f"{summary.best_uncertainty:.2g}")
+    return 0
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    from calibrax.core.campaign import Campaign
+    from calibrax.core.store import CampaignStore
+
+    store = CampaignStore(args.store)
+    points = store.points()
+    summary = Campaign.summary(store)
+    if args.json:
+        rows = [{"id": p.id, "batch": p.batch, "source": p.acquisition, "params": p.params(), "status": p.status,
+                 "distance": None if p.metric is None else p.metric.value,
+                 "uncertainty": None if p.metric is None else p.metric.uncertainty,
+                 "features": {} if p.metric is None else p.metric.features,
+                 "failures": [s.reason for s in p.sims if s.status == "failed"]} for p in points]
+        print(json.dumps({"points": rows, "best_id": summary.best_id}, default=float, indent=1))
+        return 0
+    names = points[0].names if points else []
+    head = f"{'id':>3} {'batch':>5} {'source':<16} " + " ".join(f"{n[:14]:>14}" for n in names) + \
+        f" {'status':<8} {'C [Pa]':>9} {'AIF [°]':>8} {'distance':>15} {'wall [s]':>9}"
+    print(head)
+    print("-" * len(head))
+    for p in points:
+        f = p.metric.features if p.metric else {}
+        dist = f"{p.metric.value:.3g} ± {p.metric.uncertainty:.2g}" if p.metric else ""
+        wall = sum(s.wall_time for s in p.sims if math.isfinite(s.wall_time))
+        mark = " *" if p.id == summary.best_id else ""
+        print(f"{p.id:>3} {p.batch:>5} {p.acquisition[:16]:<16} " + " ".join(f"{v:>14.4g}" for v in p.natural) +
+              f" {p.status:<8} {f.get('cohesion_sim', float('nan')):>9.0f} {f.get('aif_sim', float('nan')):>8.1f}"
+              f" {dist:>15} {wall:>9.1f}{mark}")
+        for s in p.sims:
+            if s.status == "failed":
+                print(f"      sim {s.index} failed [{s.kind}]: {s.reason}")
+    print(f"\n{summary.points} points: {summary.done} done, {summary.failed} failed, "
+          f"{summary.points - summary.done - summary.failed} pending")
+    if summary.best_id is not None:
+        params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
+        print(f"best (*): point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
+              f"{summary.best_uncertainty:.2g}")
+    return 0
+
+
+def _cmd_plugins(args: argparse.Namespace) -> int:
+    from calibrax.plugins.manager import HOOKS, get_manager
+
+    manager = get_manager()
+    print(f"{'kind':<12} {'name':<14} {'version':<10} distribution")
+    for kind in HOOKS:
+        for name, info in sorted(manager.plugins(kind).items()):
+            print(f"{kind:<12} {name:<14} {info.version:<10} {info.distribution}")
+    if manager.broken:
+        print("\nbroken (skipped):")
+        for b in manager.broken:
+            print(f"  {b.entry_point} from {b.distribution}: {b.error}")
+    return 0
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``calibrax`` console script; returns the exit code."""
+    from calibrax.errors import CalibraxError
+
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    quiet = getattr(args, "quiet", False)
+    logging.basicConfig(level=logging.WARNING if quiet else logging.INFO, stream=sys.stderr,
+                        format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
+    warnings.filterwarnings("default", module="calibrax")
+    signal.signal(signal.SIGTERM, _raise_interrupt)
+    handlers = {"run": _cmd_run, "status": _cmd_status, "plugins": _cmd_plugins}
+    try:
+        return handlers[args.command](args)
+    except CalibraxError as exc:
+        print(f"calibrax: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("calibrax: stopped; finished results are in the store — run the same command again to resume",
+              file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""The core: interfaces, values, the search and the store. It never imports a backend."""

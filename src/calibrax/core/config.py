@@ -1,0 +1,304 @@
+"""campaign.yaml → a validated, typed :class:`CampaignConfig`.
+
+Every key is checked before anything runs: an unknown key, a wrong type, a non-finite number, a
+bound with low ≥ high, a missing file or an unknown plugin name raises :class:`ConfigError`
+naming the key path and what is allowed. Paths are relative to the campaign file's folder.
+YAML is read with ``yaml.safe_load`` only.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from calibrax.core.experiment import Experiment, load_experiment
+from calibrax.core.parameters import ParameterSpace
+from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
+                                     ShearCellSpec, SizeDistribution)
+from calibrax.errors import ConfigError, PluginError, SpecError
+
+ROOT_KEYS = {
+    "name": "a label for the campaign (text)",
+    "description": "free text",
+    "simulator": "the backend plugin (e.g. numba_dem, liggghts, yade)",
+    "experiment": "a points CSV or an experiment YAML header",
+    "cell": "{preset, procedure, geometry, numerics, size_distribution, fill_solid_fraction}",
+    "material": "fixed material values (Material fields and radius)",
+    "parameters": "{name: {low, high, log}} of the calibrated parameters",
+    "metric": "a metric name or {name, options...}",
+    "acquisition": "an acquisition name or {name, q, options...}",
+    "budget": "{initial, iterations}",
+    "executor": "an executor name or {name, workers, timeout_s}",
+    "store": "path of the campaign's HDF5 store",
+    "workdir": "folder for the simulations' work folders (default: next to the store)",
+    "seed": "integer seed of the search and of the simulations",
+    "seeds_per_point": "simulations (different seeds) per parameter point",
+}
+REQUIRED = ("name", "simulator", "experiment", "parameters", "store")
+CELL_KEYS = {"preset", "procedure", "geometry", "numerics", "size_distribution", "fill_solid_fraction"}
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    """A validated campaign. ``spec`` is the base spec: calibrated parameters replace its material
+    values at each point, and ``numerics.seed`` is set per simulation."""
+
+    name: str
+    source: Path
+    simulator: str
+    experiment: Experiment
+    spec: ShearCellSpec
+    space: ParameterSpace
+    metric: str
+    metric_options: dict[str, Any]
+    acquisition: str
+    q: int
+    acquisition_options: dict[str, Any]
+    initial: int
+    iterations: int
+    executor: str
+    executor_options: dict[str, Any]
+    store: Path
+    workdir: Path
+    seed: int
+    seeds_per_point: int
+    resolved: dict[str, Any] = field(default_factory=dict)
+
+    def search_hash(self) -> str:
+        """Hash of what defines the search (not budget, executor or paths): a store made with a
+        different one cannot be resumed with this config."""
+        keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
+                                                                      "description", "name")}
+        return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
+
+
+# ----------------------------------------------------------------------------- small checkers
+def _number(key: str, v: Any, *, positive: bool = False, allow_none: bool = False) -> float | None:
+    if v is None and allow_none:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ConfigError(key, f"must be a number, got {type(v).__name__} {v!r}")
+    if not math.isfinite(v):
+        raise ConfigError(key, f"must be a finite number, got {v!r}")
+    if positive and v <= 0:
+        raise ConfigError(key, f"must be > 0, got {v!r}")
+    return float(v)
+
+
+def _integer(key: str, v: Any, minimum: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ConfigError(key, f"must be an integer ≥ {minimum}, got {type(v).__name__} {v!r}")
+    if v < minimum:
+        raise ConfigError(key, f"must be an integer ≥ {minimum}, got {v}")
+    return v
+
+
+def _text(key: str, v: Any) -> str:
+    if not isinstance(v, str) or not v.strip():
+        raise ConfigError(key, f"must be non-empty text, got {type(v).__name__} {v!r}")
+    return v
+
+
+def _mapping(key: str, v: Any, allowed: set[str] | dict) -> dict:
+    if not isinstance(v, dict):
+        raise ConfigError(key, f"must be a mapping with keys from {sorted(allowed)}, got {type(v).__name__}")
+    for k in v:
+        if not isinstance(k, str) or k not in allowed:
+            raise ConfigError(f"{key}.{k}", f"unknown key; allowed: {sorted(allowed)}")
+    return v
+
+
+def _dataclass_values(key: str, raw: Any, cls: type) -> dict[str, Any]:
+    """Check a mapping against a dataclass's fields by their annotations (float, int, str,
+    ``float | None``, ``tuple[float, ...]``); return the converted values."""
+    fields_ = {f.name: str(f.type) for f in dataclasses.fields(cls)}
+    _mapping(key, raw, fields_)
+    out: dict[str, Any] = {}
+    for name, value in raw.items():
+        k, typ = f"{key}.{name}", fields_[name]
+        if typ.startswith("tuple"):
+            if not isinstance(value, list) or not value:
+                raise ConfigError(k, f"must be a non-empty list of numbers, got {value!r}")
+            out[name] = tuple(_number(f"{k}[{i}]", x) for i, x in enumerate(value))
+        elif typ == "int":
+            out[name] = _integer(k, value, 0)
+        elif typ == "float | None":
+            out[name] = _number(k, value, allow_none=True)
+        elif typ == "float":
+            out[name] = _number(k, value)
+        else:
+            out[name] = _text(k, value)
+    return out
+
+
+def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[str, dict[str, Any]]:
+    """``name`` or ``{name: ..., option: ...}`` → (name, options), the name checked against the plugins."""
+    from calibrax.plugins.manager import get_manager
+
+    if raw is None and default is not None:
+        raw = default
+    if isinstance(raw, str):
+        name, options = raw, {}
+    elif isinstance(raw, dict):
+        if "name" not in raw:
+            raise ConfigError(f"{key}.name", "is required")
+        name, options = raw["name"], {k: v for k, v in raw.items() if k != "name"}
+        if not isinstance(name, str):
+            raise ConfigError(f"{key}.name", f"must be text, got {name!r}")
+    else:
+        raise ConfigError(key, f"must be a {kind} name or a mapping with 'name', got {type(raw).__name__}")
+    try:
+        info = get_manager().get(kind, name)
+    except PluginError as exc:
+        raise ConfigError(key, str(exc)) from None
+    allowed = getattr(info.cls, "OPTIONS", {})
+    for opt, value in options.items():
+        if opt not in allowed:
+            raise ConfigError(f"{key}.{opt}", f"unknown option of {kind} {name!r}; allowed: {sorted(allowed)}")
+        typ = allowed[opt]
+        if typ is float:
+            options[opt] = _number(f"{key}.{opt}", value)
+        elif typ is int:
+            options[opt] = _integer(f"{key}.{opt}", value, 0)
+        elif typ is str:
+            options[opt] = _text(f"{key}.{opt}", value)
+    return name, options
+
+
+# ----------------------------------------------------------------------------- the spec
+def build_spec(cell: Any, material: Any) -> ShearCellSpec:
+    """The base spec from ``cell:`` and ``material:`` (both optional)."""
+    cell = _mapping("cell", {} if cell is None else cell, CELL_KEYS)
+    material = {} if material is None else material
+    mat_fields = {f.name for f in dataclasses.fields(Material)} | {"radius"}
+    _mapping("material", material, mat_fields)
+    preset = cell.get("preset", "quick")
+    if preset not in FIDELITY_PRESETS:
+        raise ConfigError("cell.preset", f"unknown preset {preset!r}; allowed: {sorted(FIDELITY_PRESETS)}")
+    procedure = cell.get("procedure", "paper")
+    proc_overrides: dict[str, Any] = {}
+    if isinstance(procedure, dict):
+        proc_fields = {f.name for f in dataclasses.fields(Procedure)} | {"preset"}
+        _mapping("cell.procedure", procedure, proc_fields)
+        proc_overrides = _dataclass_values("cell.procedure", {k: v for k, v in procedure.items() if k != "preset"},
+                                           Procedure)
+        procedure = procedure.get("preset", "paper")
+    if procedure not in PROCEDURES:
+        raise ConfigError("cell.procedure", f"unknown procedure {procedure!r}; allowed: {sorted(PROCEDURES)} "
+                          "or a mapping of procedure fields")
+    mat_values = _dataclass_values("material", {k: v for k, v in material.items() if k != "radius"}, Material)
+    overrides: dict[str, Any] = {"material": mat_values}
+    if "radius" in material:
+        overrides["radius"] = _number("material.radius", material["radius"], positive=True)
+    for sub, cls in (("geometry", Geometry), ("numerics", Numerics), ("size_distribution", SizeDistribution)):
+        if sub in cell:
+            overrides[sub] = _dataclass_values(f"cell.{sub}", cell[sub], cls)
+    if proc_overrides:
+        overrides["procedure"] = proc_overrides
+    if "fill_solid_fraction" in cell:
+        overrides["fill_solid_fraction"] = _number("cell.fill_solid_fraction", cell["fill_solid_fraction"])
+    try:
+        spec = ShearCellSpec.preset(preset, procedure, **overrides)
+        spec.validate()
+    except SpecError as exc:
+        where = exc.key if exc.key.startswith(("material.", "cell.")) else (
+            "material.radius" if exc.key == "radius" else f"cell.{exc.key}")
+        raise ConfigError(where, exc.message) from None
+    except TypeError as exc:
+        raise ConfigError("cell", str(exc)) from None
+    return spec
+
+
+# ----------------------------------------------------------------------------- the campaign
+def load_config(path: str | Path) -> CampaignConfig:
+    """Read and validate a campaign file (nothing is written)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(str(path), "campaign file not found")
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise ConfigError(str(path), f"is not valid YAML: {exc}") from None
+    return parse_config(raw, base=path.parent, source=path)
+
+
+def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignConfig:
+    """Validate an already-parsed mapping; relative paths are taken from ``base``."""
+    if not isinstance(raw, dict):
+        raise ConfigError("", f"a campaign file must be a mapping of keys {sorted(ROOT_KEYS)}")
+    for key in raw:
+        if not isinstance(key, str) or key not in ROOT_KEYS:
+            allowed = ", ".join(f"{k} ({v})" for k, v in ROOT_KEYS.items())
+            raise ConfigError(str(key), f"unknown key; allowed: {allowed}")
+    for key in REQUIRED:
+        if key not in raw:
+            raise ConfigError(key, f"is required: {ROOT_KEYS[key]}")
+    name = _text("name", raw["name"])
+    simulator, sim_options = _named("simulator", raw["simulator"], "simulator")
+    if sim_options:
+        raise ConfigError(f"simulator.{sorted(sim_options)[0]}", "simulators take no options here; "
+                          "set threads under cell.numerics.threads")
+    exp_path = base / _text("experiment", raw["experiment"])
+    try:
+        experiment = load_experiment(exp_path)
+    except ConfigError as exc:
+        raise ConfigError("experiment", str(exc)) from None
+    spec = build_spec(raw.get("cell"), raw.get("material"))
+    space = ParameterSpace.from_config(raw["parameters"])
+    metric, metric_options = _named("metric", raw.get("metric"), "metric", default="c_aif")
+    acq_raw = raw.get("acquisition")
+    q = 2
+    if isinstance(acq_raw, dict) and "q" in acq_raw:
+        q = _integer("acquisition.q", acq_raw["q"], 1)
+        acq_raw = {k: v for k, v in acq_raw.items() if k != "q"}
+    acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="qei")
+    budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations"})
+    initial = _integer("budget.initial", budget.get("initial", 4), 2)
+    iterations = _integer("budget.iterations", budget.get("iterations", 8), 0)
+    executor, exec_options = _named("executor", raw.get("executor"), "executor", default="local")
+    if "workers" in exec_options and exec_options["workers"] < 1:
+        raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {exec_options['workers']}")
+    if exec_options.get("timeout_s") is not None and exec_options["timeout_s"] <= 0:
+        raise ConfigError("executor.timeout_s", f"must be > 0 s, got {exec_options['timeout_s']}")
+    store = base / _text("store", raw["store"])
+    if store.suffix not in (".h5", ".hdf5"):
+        raise ConfigError("store", f"must name an HDF5 file ending in .h5 or .hdf5, got {store.name!r}")
+    if store.exists() and not store.is_file():
+        raise ConfigError("store", f"{store} exists and is not a file")
+    workdir = base / _text("workdir", raw["workdir"]) if "workdir" in raw else store.with_suffix(".runs")
+    seed = _integer("seed", raw.get("seed", 0), 0)
+    seeds_per_point = _integer("seeds_per_point", raw.get("seeds_per_point", 1), 1)
+    # Build the plugins once so their own option checks run now, not mid-campaign.
+    from calibrax.core.simulator import check_capabilities
+    from calibrax.plugins.manager import get_manager
+
+    manager = get_manager()
+    for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options)):
+        try:
+            manager.create(kind, pname, **opts)
+        except TypeError as exc:
+            raise ConfigError(kind, str(exc)) from None
+    try:
+        metric_obj = manager.create("metric", metric, **metric_options)
+        metric_obj.scales(experiment) if hasattr(metric_obj, "scales") else None
+        check_capabilities(manager.create("simulator", simulator), spec)
+    except PluginError as exc:
+        raise ConfigError("simulator", str(exc)) from None
+    resolved = {
+        "name": name, "simulator": simulator, "experiment": str(exp_path), "cell": spec.to_dict(),
+        "parameters": {p.name: {"low": p.low, "high": p.high, "log": p.log} for p in space.parameters},
+        "metric": {"name": metric, **metric_options}, "acquisition": {"name": acquisition, "q": q, **acq_options},
+        "budget": {"initial": initial, "iterations": iterations},
+        "executor": {"name": executor, **exec_options}, "store": str(store), "workdir": str(workdir),
+        "seed": seed, "seeds_per_point": seeds_per_point,
+    }
+    return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
+                          acquisition, q, acq_options, initial, iterations, executor, exec_options, store,
+                          workdir, seed, seeds_per_point, resolved)

@@ -1,0 +1,200 @@
+"""Measured data: yield-locus points with replicates, optional τ curves, optional header.
+
+Files (all UTF-8, lines starting with ``#`` are comments — use them to say where data came from):
+
+* points CSV, required columns ``normal_stress_pa, peak_shear_stress_pa, replicate`` (replicate is
+  an integer id of the full shear test the point belongs to), optional columns
+  ``preshear_normal_stress_pa, preshear_shear_stress_pa``;
+* curves CSV (optional), columns ``replicate, normal_stress_pa, rotation_rad, shear_stress_pa``:
+  the τ curve of each shear step;
+* header YAML (optional) naming them, relative to itself::
+
+      name: B4C
+      source: where the data came from (instrument, date, or the pseudo-experiment's backend and parameters)
+      points: b4c-points.csv
+      curves: b4c-curves.csv      # optional
+      preshear_stress_pa: 15000   # optional
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from calibrax.core.yieldlocus import YieldLocus
+from calibrax.errors import ExperimentError
+
+POINT_COLUMNS = ("normal_stress_pa", "peak_shear_stress_pa", "replicate")
+OPTIONAL_POINT_COLUMNS = ("preshear_normal_stress_pa", "preshear_shear_stress_pa")
+CURVE_COLUMNS = ("replicate", "normal_stress_pa", "rotation_rad", "shear_stress_pa")
+HEADER_KEYS = {"name", "source", "points", "curves", "preshear_stress_pa", "material", "cell"}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A measured yield locus, possibly replicated.
+
+    Attributes:
+        name: a label.
+        normal_stress: σ of each point, shape (n,), Pa.
+        peak_shear_stress: τ_peak of each point, shape (n,), Pa.
+        replicate: replicate id of each point, shape (n,), int.
+        preshear_stress: σ of the preshear, Pa (NaN if unknown).
+        preshear_shear_stress: steady τ of the preshear per replicate (NaN if unknown), Pa.
+        curves: {(replicate, σ in Pa): (rotation rad shape (m,), τ Pa shape (m,))}.
+        source: the provenance text of the data.
+    """
+
+    name: str
+    normal_stress: np.ndarray
+    peak_shear_stress: np.ndarray
+    replicate: np.ndarray
+    preshear_stress: float = float("nan")
+    preshear_shear_stress: float = float("nan")
+    curves: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    source: str = ""
+    files: tuple[str, ...] = ()
+
+    @property
+    def replicates(self) -> list[int]:
+        return sorted(set(int(r) for r in self.replicate))
+
+    def locus(self) -> YieldLocus:
+        """The locus fitted to all points of all replicates together."""
+        return YieldLocus.fit(self.normal_stress, self.peak_shear_stress)
+
+    def replicate_loci(self) -> list[YieldLocus]:
+        """One locus per replicate (replicates with < 2 distinct σ are left out)."""
+        out = []
+        for r in self.replicates:
+            m = self.replicate == r
+            if np.unique(self.normal_stress[m]).size >= 2:
+                out.append(YieldLocus.fit(self.normal_stress[m], self.peak_shear_stress[m]))
+        return out
+
+    def spread(self) -> tuple[float, float]:
+        """Replicate spread (sample standard deviation) of (C in Pa, AIF in degrees).
+
+        With fewer than two replicate loci, the regression standard errors of the pooled fit
+        stand in (NaN if those are undefined too).
+        """
+        loci = self.replicate_loci()
+        if len(loci) >= 2:
+            c = np.std([l.cohesion for l in loci], ddof=1)
+            a = np.std([l.aif_deg for l in loci], ddof=1)
+            return float(c), float(a)
+        pooled = self.locus()
+        return pooled.cohesion_stderr, pooled.aif_stderr_deg
+
+
+def _read_csv(path: Path, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+    if not path.is_file():
+        raise ExperimentError(str(path), "file not found")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ExperimentError(str(path), f"cannot be read as UTF-8 text: {exc}") from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise ExperimentError(str(path), f"has no rows; expected columns {list(required)}")
+    reader = csv.DictReader(lines)
+    header = [h.strip() for h in (reader.fieldnames or [])]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise ExperimentError(str(path), f"missing column(s) {missing}; required: {list(required)}, "
+                              f"optional: {list(optional)}; found: {header}")
+    unknown = [c for c in header if c not in required and c not in optional]
+    if unknown:
+        raise ExperimentError(str(path), f"unknown column(s) {unknown}; allowed: {list(required + optional)}")
+    cols: dict[str, list[float]] = {c: [] for c in header}
+    for lineno, row in enumerate(reader, start=2):
+        for c in header:
+            raw = (row.get(c) or "").strip()
+            if raw == "" and c in optional:
+                cols[c].append(float("nan"))
+                continue
+            try:
+                v = float(raw)
+            except ValueError:
+                raise ExperimentError(str(path), f"row {lineno}, column {c}: {raw!r} is not a number") from None
+            if not math.isfinite(v):
+                raise ExperimentError(str(path), f"row {lineno}, column {c}: must be finite, got {raw!r}")
+            cols[c].append(v)
+    return {c: np.asarray(v, dtype=float) for c, v in cols.items()}
+
+
+def load_points(path: Path, name: str | None = None) -> Experiment:
+    """Read a points CSV (see the module docstring)."""
+    path = Path(path)
+    cols = _read_csv(path, POINT_COLUMNS, OPTIONAL_POINT_COLUMNS)
+    sigma, tau, rep = cols["normal_stress_pa"], cols["peak_shear_stress_pa"], cols["replicate"]
+    if np.any(sigma <= 0):
+        raise ExperimentError(str(path), "normal_stress_pa must be > 0 in every row")
+    if np.any(rep != np.round(rep)):
+        raise ExperimentError(str(path), "replicate must be an integer id in every row")
+    if np.unique(sigma).size < 2:
+        raise ExperimentError(str(path), "needs points at two or more distinct normal stresses for a yield locus")
+    pre_sigma = cols.get("preshear_normal_stress_pa")
+    pre_tau = cols.get("preshear_shear_stress_pa")
+    source = "\n".join(ln.lstrip("# ").rstrip() for ln in path.read_text(encoding="utf-8").splitlines()
+                       if ln.lstrip().startswith("#"))
+    return Experiment(
+        name=name or path.stem,
+        normal_stress=sigma,
+        peak_shear_stress=tau,
+        replicate=rep.astype(int),
+        preshear_stress=float(np.nanmean(pre_sigma)) if pre_sigma is not None and np.any(np.isfinite(pre_sigma)) else float("nan"),
+        preshear_shear_stress=float(np.nanmean(pre_tau)) if pre_tau is not None and np.any(np.isfinite(pre_tau)) else float("nan"),
+        source=source,
+        files=(str(path),),
+    )
+
+
+def load_curves(path: Path) -> dict[tuple[int, float], tuple[np.ndarray, np.ndarray]]:
+    """Read a curves CSV → {(replicate, σ): (rotation, τ)}, each sorted by rotation."""
+    cols = _read_csv(Path(path), CURVE_COLUMNS)
+    out: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = {}
+    keys = sorted(set(zip(cols["replicate"].astype(int), cols["normal_stress_pa"])))
+    for rep, sig in keys:
+        m = (cols["replicate"] == rep) & (cols["normal_stress_pa"] == sig)
+        order = np.argsort(cols["rotation_rad"][m])
+        out[(int(rep), float(sig))] = (cols["rotation_rad"][m][order], cols["shear_stress_pa"][m][order])
+    return out
+
+
+def load_experiment(path: str | Path) -> Experiment:
+    """Load an experiment from a points CSV or from a YAML header naming the files."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(str(path), "file not found (give a points CSV or a YAML header)")
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        return load_points(path)
+    try:
+        header = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        raise ExperimentError(str(path), f"is not valid YAML: {exc}") from None
+    if not isinstance(header, dict):
+        raise ExperimentError(str(path), "must be a mapping with at least the key 'points'")
+    unknown = set(header) - HEADER_KEYS
+    if unknown:
+        raise ExperimentError(f"{path}: {sorted(unknown)[0]}", f"unknown key; allowed: {sorted(HEADER_KEYS)}")
+    if not isinstance(header.get("points"), str):
+        raise ExperimentError(f"{path}: points", "is required: the name of the points CSV")
+    exp = load_points(path.parent / header["points"], name=str(header.get("name") or path.stem))
+    curves = {}
+    if header.get("curves") is not None:
+        if not isinstance(header["curves"], str):
+            raise ExperimentError(f"{path}: curves", "must be the name of a curves CSV")
+        curves = load_curves(path.parent / header["curves"])
+    pre = header.get("preshear_stress_pa", exp.preshear_stress)
+    if isinstance(pre, bool) or not isinstance(pre, (int, float)):
+        raise ExperimentError(f"{path}: preshear_stress_pa", f"must be a number, got {pre!r}")
+    source = str(header.get("source") or exp.source)
+    files = exp.files + ((str(path.parent / header["curves"]),) if header.get("curves") else ()) + (str(path),)
+    return Experiment(exp.name, exp.normal_stress, exp.peak_shear_stress, exp.replicate, float(pre),
+                      exp.preshear_shear_stress, curves, source, files)

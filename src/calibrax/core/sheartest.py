@@ -1,0 +1,601 @@
+"""The FT4 cylindrical shear test as one backend-neutral spec, and its result.
+
+``ShearCellSpec`` describes geometry, particles, material, procedure and numerics in SI units
+(Pa, m, s, rad, kg). Every backend (numba_dem, LIGGGHTS, YADE) simulates the *same* spec and
+returns a ``ShearTestResult`` whose peaks are found by the *same* function here, so that
+backends can be compared like with like.
+
+Defaults are the reference paper's Table 1 material (E = 25 GPa, μs = 0.5, ν = 0.25, e = 0.3,
+μr = 0.5, ρ = 3000 kg/m³, R = 0.9 mm) and its procedure (preshear 15 kPa; shear at 9, 8, 7, 6 kPa).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from calibrax.core.yieldlocus import MohrAnalysis, YieldLocus
+from calibrax.errors import SpecError
+
+__all__ = [
+    "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",
+    "StepRecord", "Provenance", "ShearTestResult", "YieldLocus", "MohrAnalysis",
+    "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
+    "PROCEDURES", "FIDELITY_PRESETS",
+]
+
+
+# ----------------------------------------------------------------------------- value objects
+@dataclass(frozen=True)
+class Material:
+    """Particle material, Table 1 of the reference paper by default.
+
+    Attributes:
+        youngs_modulus: E, Pa.
+        poisson_ratio: ν, in [0, 0.5).
+        restitution: e, in (0, 1]; the damping of LIGGGHTS' ``hertz`` model is derived from it.
+        sliding_friction: μs, ≥ 0.
+        rolling_friction: μr, ≥ 0 (EPSD2 type, no viscous part).
+        density: ρ, kg/m³.
+        cohesion_energy_density: k of the simplified JKR model (LIGGGHTS ``cohesion sjkr``,
+            F = k·A with A the contact area), J/m³; 0 = no cohesion (the default).
+    """
+
+    youngs_modulus: float = 25.0e9
+    poisson_ratio: float = 0.25
+    restitution: float = 0.3
+    sliding_friction: float = 0.5
+    rolling_friction: float = 0.5
+    density: float = 3000.0
+    cohesion_energy_density: float = 0.0
+
+    @property
+    def reduced_modulus(self) -> float:
+        """Ẽ = E / (1 − ν²), Pa."""
+        return self.youngs_modulus / (1.0 - self.poisson_ratio**2)
+
+
+@dataclass(frozen=True)
+class SizeDistribution:
+    """Particle radii. ``mono`` (default), ``lognormal`` or ``table``.
+
+    Attributes:
+        kind: "mono" | "lognormal" | "table".
+        sigma_log: standard deviation of ln(r) for ``lognormal`` (radius ``Particles.radius`` is the
+            median), truncated to [r·min_ratio, r·max_ratio].
+        radii: table radii, m (``table`` only).
+        fractions: table number fractions (``table`` only), summing to 1.
+    """
+
+    kind: Literal["mono", "lognormal", "table"] = "mono"
+    sigma_log: float = 0.0
+    min_ratio: float = 0.5
+    max_ratio: float = 2.0
+    radii: tuple[float, ...] = ()
+    fractions: tuple[float, ...] = ()
+
+    def sample(self, median_radius: float, n: int, rng: np.random.Generator) -> np.ndarray:
+        """Draw ``n`` radii (m), shape (n,)."""
+        if self.kind == "mono":
+            return np.full(n, median_radius)
+        if self.kind == "lognormal":
+            r = median_radius * np.exp(rng.normal(0.0, self.sigma_log, n))
+            return np.clip(r, median_radius * self.min_ratio, median_radius * self.max_ratio)
+        idx = rng.choice(len(self.radii), size=n, p=np.asarray(self.fractions) / np.sum(self.fractions))
+        return np.asarray(self.radii, dtype=float)[idx]
+
+    def mean_volume_factor(self, median_radius: float) -> float:
+        """E[r³] / R³, used to turn a fill volume into a particle count."""
+        if self.kind == "mono":
+            return 1.0
+        if self.kind == "lognormal":
+            return float(math.exp(4.5 * self.sigma_log**2))
+        r = np.asarray(self.radii) / median_radius
+        f = np.asarray(self.fractions) / np.sum(self.fractions)
+        return float(np.sum(f * r**3))
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The FT4 cylindrical shear cell, scaled to the particles (all m).
+
+    The head is a disc of radius ``head_radius`` with ``blade_count`` radial blades of height
+    ``blade_height`` hanging below it, from ``hub_radius`` out to ``head_radius``. The lateral wall
+    is frictionless by default (the paper's hypothesis); the base takes the particles' μs and μr
+    (``None``), because a bed on a frictionless base *and* wall turns with the head.
+    """
+
+    vessel_diameter: float = 61.2e-3
+    fill_height: float = 53.9e-3
+    head_radius: float = 29.4e-3
+    blade_count: int = 18
+    blade_height: float = 3.6e-3
+    hub_radius: float = 3.0e-3
+    wall_friction: float = 0.0
+    base_friction: float | None = None
+    base_rolling_friction: float | None = None
+    head_friction: float | None = None
+    base_ribs: int = 0
+    rib_height: float = 1.8e-3
+
+
+@dataclass(frozen=True)
+class Procedure:
+    """The test sequence: for each shear stress, preshear then shear (Pa, rad, rad/s, s).
+
+    Attributes:
+        preshear_stress: σ of every preshear, Pa (15 kPa in the paper).
+        shear_stresses: σ of each shear step, Pa, in the order run (9, 8, 7, 6 kPa in the paper).
+        rotation_rate: head rotation rate during preshear and shear, rad/s.
+        preshear_rotation: head rotation of each preshear (to steady state), rad.
+        shear_rotation: head rotation of each shear step (past the peak), rad.
+        settle_time: time the head holds the new σ, not rotating, before each rotation starts, s.
+        peak_window: width of the running mean the peak is taken from, rad of rotation.
+    """
+
+    preshear_stress: float = 15.0e3
+    shear_stresses: tuple[float, ...] = (9.0e3, 8.0e3, 7.0e3, 6.0e3)
+    rotation_rate: float = 1.0
+    preshear_rotation: float = 0.30
+    shear_rotation: float = 0.20
+    settle_time: float = 0.02
+    peak_window: float = 0.01
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Time step, output and randomness.
+
+    Attributes:
+        dt_fraction: Δt as a fraction of the paper's critical step (eq. 1), in (0, 1].
+        stress_for_dt: σ0 in eq. (1), Pa; defaults to the preshear stress.
+        sample_interval: time between recorded samples of the time series, s.
+        seed: random seed of the packing; same seed and thread count → identical result.
+        threads: threads (or MPI ranks) the backend may use.
+    """
+
+    dt_fraction: float = 0.05
+    stress_for_dt: float | None = None
+    sample_interval: float = 2.0e-4
+    seed: int = 0
+    threads: int = 1
+
+
+@dataclass(frozen=True)
+class ShearCellSpec:
+    """One FT4 shear test, complete and backend-neutral. Use :meth:`preset` to build one."""
+
+    geometry: Geometry = field(default_factory=Geometry)
+    material: Material = field(default_factory=Material)
+    radius: float = 0.9e-3
+    size_distribution: SizeDistribution = field(default_factory=SizeDistribution)
+    fill_solid_fraction: float = 0.60
+    procedure: Procedure = field(default_factory=Procedure)
+    numerics: Numerics = field(default_factory=Numerics)
+    name: str = "custom"
+
+    # -- derived quantities ------------------------------------------------------------------
+    @property
+    def particles_per_diameter(self) -> float:
+        """Cell diameter in particle diameters, D / (2R)."""
+        return self.geometry.vessel_diameter / (2.0 * self.radius)
+
+    @property
+    def particle_count(self) -> int:
+        """Particles needed to fill the cell to ``fill_height`` at ``fill_solid_fraction``."""
+        g = self.geometry
+        v_cell = math.pi * (g.vessel_diameter / 2) ** 2 * g.fill_height
+        v_p = 4.0 / 3.0 * math.pi * self.radius**3 * self.size_distribution.mean_volume_factor(self.radius)
+        return int(round(self.fill_solid_fraction * v_cell / v_p))
+
+    @property
+    def critical_time_step(self) -> float:
+        """Δt_crit of the paper's eq. (1) at σ0 (``numerics.stress_for_dt`` or the preshear σ), s."""
+        s0 = self.numerics.stress_for_dt or self.procedure.preshear_stress
+        r_min = self.radius * (self.size_distribution.min_ratio if self.size_distribution.kind == "lognormal" else 1.0)
+        if self.size_distribution.kind == "table":
+            r_min = min(self.size_distribution.radii)
+        return critical_time_step(r_min, self.material.density, self.material.reduced_modulus, s0)
+
+    @property
+    def time_step(self) -> float:
+        """Δt = dt_fraction · Δt_crit, s."""
+        return self.numerics.dt_fraction * self.critical_time_step
+
+    def effective_base_friction(self) -> tuple[float, float]:
+        """(μs, μr) of the base: the material's unless set."""
+        g, m = self.geometry, self.material
+        return (m.sliding_friction if g.base_friction is None else g.base_friction,
+                m.rolling_friction if g.base_rolling_friction is None else g.base_rolling_friction)
+
+    def effective_head_friction(self) -> float:
+        """μs of the head's blades and face: the material's unless set."""
+        g = self.geometry
+        return self.material.sliding_friction if g.head_friction is None else g.head_friction
+
+    # -- construction ------------------------------------------------------------------------
+    @classmethod
+    def preset(cls, fidelity: str = "quick", procedure: str = "paper", **overrides: Any) -> "ShearCellSpec":
+        """Build a spec from a fidelity preset and a procedure preset.
+
+        Args:
+            fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
+            procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891").
+            overrides: ``material=Material(...)``, ``radius=...``, ``numerics={...}`` etc.; dicts
+                update the preset's sub-dataclass field by field.
+        """
+        if fidelity not in FIDELITY_PRESETS:
+            raise SpecError("cell.preset", f"unknown fidelity preset {fidelity!r}; allowed: {sorted(FIDELITY_PRESETS)}")
+        if procedure not in PROCEDURES:
+            raise SpecError("cell.procedure.preset", f"unknown procedure {procedure!r}; allowed: {sorted(PROCEDURES)}")
+        p = FIDELITY_PRESETS[fidelity]
+        radius = float(overrides.pop("radius", 0.9e-3))
+        d = 2.0 * radius
+        diameter = p["particles_per_diameter"] * d
+        geometry = Geometry(
+            vessel_diameter=diameter,
+            fill_height=p["height_ratio"] * diameter,
+            head_radius=0.48 * diameter,
+            blade_count=p["blade_count"],
+            blade_height=p["blade_height_d"] * d,
+            hub_radius=0.1 * diameter,
+            rib_height=d,
+        )
+        proc = dataclasses.replace(PROCEDURES[procedure], **p["procedure"])
+        numerics = Numerics(**p["numerics"])
+        spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
+        return spec.replace(**overrides)
+
+    def replace(self, **changes: Any) -> "ShearCellSpec":
+        """A copy with fields changed; a dict value updates a sub-dataclass field by field."""
+        resolved: dict[str, Any] = {}
+        for key, value in changes.items():
+            if key not in {f.name for f in dataclasses.fields(self)}:
+                raise SpecError(f"cell.{key}", f"unknown field; allowed: {[f.name for f in dataclasses.fields(self)]}")
+            current = getattr(self, key)
+            if isinstance(value, dict) and dataclasses.is_dataclass(current):
+                allowed = {f.name for f in dataclasses.fields(current)}
+                unknown = set(value) - allowed
+                if unknown:
+                    raise SpecError(f"cell.{key}.{sorted(unknown)[0]}", f"unknown field; allowed: {sorted(allowed)}")
+                value = dataclasses.replace(current, **value)
+            resolved[key] = value
+        return dataclasses.replace(self, **resolved)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (tuples become lists)."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "ShearCellSpec":
+        """Inverse of :meth:`to_dict`."""
+        d = dict(data)
+        sub = {"geometry": Geometry, "material": Material, "size_distribution": SizeDistribution,
+               "procedure": Procedure, "numerics": Numerics}
+        for key, typ in sub.items():
+            if key in d:
+                fields_ = dict(d[key])
+                for f in dataclasses.fields(typ):
+                    if f.name in fields_ and isinstance(fields_[f.name], list):
+                        fields_[f.name] = tuple(fields_[f.name])
+                d[key] = typ(**fields_)
+        return cls(**d)
+
+    def spec_hash(self) -> str:
+        """A short stable hash of the whole spec (seed included)."""
+        blob = json.dumps(self.to_dict(), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+    def validate(self, min_particles: int = 50) -> "ShearCellSpec":
+        """Raise :class:`SpecError` naming the field and what is allowed; return self if valid."""
+        m, g, p, n = self.material, self.geometry, self.procedure, self.numerics
+
+        def finite(key: str, value: float) -> None:
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise SpecError(key, f"must be a finite number, got {value!r}")
+
+        def positive(key: str, value: float) -> None:
+            finite(key, value)
+            if value <= 0:
+                raise SpecError(key, f"must be > 0, got {value!r}")
+
+        positive("radius", self.radius)
+        positive("material.youngs_modulus", m.youngs_modulus)
+        positive("material.density", m.density)
+        finite("material.poisson_ratio", m.poisson_ratio)
+        if not 0.0 <= m.poisson_ratio < 0.5:
+            raise SpecError("material.poisson_ratio", f"must lie in [0, 0.5), got {m.poisson_ratio}")
+        finite("material.restitution", m.restitution)
+        if not 0.0 < m.restitution <= 1.0:
+            raise SpecError("material.restitution", f"must lie in (0, 1], got {m.restitution}")
+        for key in ("sliding_friction", "rolling_friction", "cohesion_energy_density"):
+            finite(f"material.{key}", getattr(m, key))
+            if getattr(m, key) < 0:
+                raise SpecError(f"material.{key}", f"must be ≥ 0, got {getattr(m, key)}")
+        for key in ("vessel_diameter", "fill_height", "head_radius", "blade_height", "hub_radius", "rib_height"):
+            positive(f"geometry.{key}", getattr(g, key))
+        if g.head_radius >= g.vessel_diameter / 2:
+            raise SpecError("geometry.head_radius", "must be smaller than the vessel radius")
+        if g.hub_radius >= g.head_radius:
+            raise SpecError("geometry.hub_radius", "must be smaller than the head radius")
+        if not isinstance(g.blade_count, int) or g.blade_count < 1:
+            raise SpecError("geometry.blade_count", f"must be an integer ≥ 1, got {g.blade_count!r}")
+        if not isinstance(g.base_ribs, int) or g.base_ribs < 0:
+            raise SpecError("geometry.base_ribs", f"must be an integer ≥ 0, got {g.base_ribs!r}")
+        for key in ("wall_friction", "base_friction", "base_rolling_friction", "head_friction"):
+            value = getattr(g, key)
+            if value is not None:
+                finite(f"geometry.{key}", value)
+                if value < 0:
+                    raise SpecError(f"geometry.{key}", f"must be ≥ 0, got {value}")
+        base_mu, _ = self.effective_base_friction()
+        if g.wall_friction == 0 and base_mu == 0 and g.base_ribs == 0:
+            raise SpecError("geometry.base_friction",
+                            "wall, base and ribs are all frictionless: nothing holds the bed and it turns "
+                            "with the head; give the base friction (default: the particles' μs) or ribs")
+        if g.blade_height >= g.fill_height:
+            raise SpecError("geometry.blade_height", "must be smaller than the fill height")
+        sd = self.size_distribution
+        if sd.kind not in ("mono", "lognormal", "table"):
+            raise SpecError("size_distribution.kind", f"must be mono, lognormal or table, got {sd.kind!r}")
+        if sd.kind == "lognormal":
+            finite("size_distribution.sigma_log", sd.sigma_log)
+            if not 0 < sd.sigma_log <= 1.0:
+                raise SpecError("size_distribution.sigma_log", f"must lie in (0, 1], got {sd.sigma_log}")
+            if not 0 < sd.min_ratio <= 1.0 <= sd.max_ratio:
+                raise SpecError("size_distribution.min_ratio", "need 0 < min_ratio ≤ 1 ≤ max_ratio")
+        if sd.kind == "table":
+            if len(sd.radii) == 0 or len(sd.radii) != len(sd.fractions):
+                raise SpecError("size_distribution.radii", "table needs radii and fractions of the same length")
+            for r in sd.radii:
+                positive("size_distribution.radii", r)
+            for f_ in sd.fractions:
+                finite("size_distribution.fractions", f_)
+                if f_ < 0:
+                    raise SpecError("size_distribution.fractions", "must be ≥ 0")
+            if not math.isclose(sum(sd.fractions), 1.0, rel_tol=1e-6):
+                raise SpecError("size_distribution.fractions", f"must sum to 1, got {sum(sd.fractions)}")
+        finite("fill_solid_fraction", self.fill_solid_fraction)
+        if not 0.3 <= self.fill_solid_fraction <= 0.74:
+            raise SpecError("fill_solid_fraction", f"must lie in [0.3, 0.74], got {self.fill_solid_fraction}")
+        positive("procedure.preshear_stress", p.preshear_stress)
+        if len(p.shear_stresses) < 2:
+            raise SpecError("procedure.shear_stresses", "needs at least two shear stresses for a yield locus")
+        for s in p.shear_stresses:
+            positive("procedure.shear_stresses", s)
+            if s >= p.preshear_stress:
+                raise SpecError("procedure.shear_stresses",
+                                f"each must be below the preshear stress {p.preshear_stress} Pa, got {s}")
+        if len(set(p.shear_stresses)) < 2:
+            raise SpecError("procedure.shear_stresses", "needs at least two distinct values")
+        for key in ("rotation_rate", "preshear_rotation", "shear_rotation", "peak_window"):
+            positive(f"procedure.{key}", getattr(p, key))
+        finite("procedure.settle_time", p.settle_time)
+        if p.settle_time < 0:
+            raise SpecError("procedure.settle_time", "must be ≥ 0")
+        if p.peak_window >= p.shear_rotation:
+            raise SpecError("procedure.peak_window", "must be smaller than the shear rotation")
+        positive("numerics.dt_fraction", n.dt_fraction)
+        if n.dt_fraction > 1.0:
+            raise SpecError("numerics.dt_fraction", f"must lie in (0, 1] (a fraction of Δt_crit), got {n.dt_fraction}")
+        if n.stress_for_dt is not None:
+            positive("numerics.stress_for_dt", n.stress_for_dt)
+        positive("numerics.sample_interval", n.sample_interval)
+        if not isinstance(n.seed, int) or isinstance(n.seed, bool) or n.seed < 0:
+            raise SpecError("numerics.seed", f"must be an integer ≥ 0, got {n.seed!r}")
+        if not isinstance(n.threads, int) or n.threads < 1:
+            raise SpecError("numerics.threads", f"must be an integer ≥ 1, got {n.threads!r}")
+        if self.particle_count < min_particles:
+            raise SpecError("geometry.vessel_diameter",
+                            f"the cell holds only {self.particle_count} particles (< {min_particles}); "
+                            "enlarge the cell or shrink the particles")
+        gap = 2.0 * math.pi * g.head_radius / g.blade_count
+        if gap < 2.0 * self.radius:
+            raise SpecError("geometry.blade_count",
+                            f"blades are {gap * 1e3:.2f} mm apart at the rim, less than a particle diameter "
+                            f"({2e3 * self.radius:.2f} mm): too few particles for the head")
+        return self
+
+
+# ----------------------------------------------------------------------------- presets
+#: Procedure presets: the paper's and the FT4 standard shear test of ASTM D7891.
+PROCEDURES: dict[str, Procedure] = {
+    "paper": Procedure(preshear_stress=15.0e3, shear_stresses=(9.0e3, 8.0e3, 7.0e3, 6.0e3)),
+    "astm_d7891": Procedure(preshear_stress=9.0e3, shear_stresses=(7.0e3, 6.0e3, 5.0e3, 4.0e3, 3.0e3)),
+}
+
+#: Fidelity presets: cell size in particle diameters (H/D = 0.88 as the paper's 12k…200k beds),
+#: time-step fraction, rotation and sampling. ``paper`` is the reference paper's converged setting;
+#: ``quick`` fits a 2-core machine; ``tiny`` is for tests and is noisy by design.
+FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
+    "paper": {
+        "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0,
+        "procedure": {"rotation_rate": 0.5, "preshear_rotation": 0.30, "shear_rotation": 0.20,
+                      "settle_time": 0.02, "peak_window": 0.01},
+        "numerics": {"dt_fraction": 0.05, "sample_interval": 2.0e-4},
+    },
+    "quick": {
+        "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0,
+        "procedure": {"rotation_rate": 2.0, "preshear_rotation": 0.25, "shear_rotation": 0.20,
+                      "settle_time": 0.01, "peak_window": 0.015},
+        "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
+    },
+    "tiny": {
+        "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0,
+        "procedure": {"rotation_rate": 3.0, "preshear_rotation": 0.15, "shear_rotation": 0.15,
+                      "settle_time": 0.005, "peak_window": 0.015},
+        "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
+    },
+}
+
+
+# ----------------------------------------------------------------------------- physics helpers
+def critical_time_step(radius: float, density: float, reduced_modulus: float, stress: float) -> float:
+    """The paper's eq. (1): Δt_crit = R (4/3)^(2/3) π^(1/3) √ρ σ0^(−1/6) Ẽ^(−1/3), s.
+
+    Args:
+        radius: R, m. density: ρ, kg/m³. reduced_modulus: Ẽ = E/(1−ν²), Pa. stress: σ0, Pa.
+    """
+    return radius * (4.0 / 3.0) ** (2.0 / 3.0) * math.pi ** (1.0 / 3.0) * math.sqrt(density) \
+        * stress ** (-1.0 / 6.0) * reduced_modulus ** (-1.0 / 3.0)
+
+
+def shear_stress_from_torque(torque: np.ndarray | float, head_radius: float) -> np.ndarray | float:
+    """τ = 3T / (2π R_head³), Pa, from the head torque T (N·m): uniform τ over the head's disc."""
+    return 3.0 * np.asarray(torque) / (2.0 * math.pi * head_radius**3)
+
+
+def inertial_number(spec: ShearCellSpec, normal_stress: float) -> float:
+    """Inertial number I = γ̇ d / √(σ/ρ) of a shear step (I < 1e-3 quasi-static, > 1e-2 not).
+
+    γ̇ is estimated as the head's speed at 2/3 of its radius over a shear band of 10 particle
+    diameters, the usual band width in dense granular shear.
+    """
+    d = 2.0 * spec.radius
+    rate = spec.procedure.rotation_rate * (2.0 / 3.0) * spec.geometry.head_radius / (10.0 * d)
+    return rate * d / math.sqrt(normal_stress / spec.material.density)
+
+
+def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> tuple[float, int, float]:
+    """The peak of a shear step: the maximum of a running mean of width ``window`` (rad).
+
+    Args:
+        rotation: head rotation since the step's start, shape (n,), rad, non-decreasing.
+        shear_stress: τ, shape (n,), Pa.
+        window: width of the running mean, rad.
+
+    Returns:
+        (τ_peak in Pa, index of the peak sample, position of the peak as a fraction of the
+        step's rotation: near 1 means the window was too short to pass the peak).
+    """
+    rot = np.asarray(rotation, dtype=float)
+    tau = np.asarray(shear_stress, dtype=float)
+    if rot.size == 0:
+        return float("nan"), -1, float("nan")
+    span = rot[-1] - rot[0]
+    step = span / max(rot.size - 1, 1)
+    width = max(1, int(round(window / step))) if step > 0 else 1
+    width = min(width, tau.size)
+    kernel = np.ones(width) / width
+    smooth = np.convolve(tau, kernel, mode="valid")
+    i = int(np.argmax(smooth))
+    centre = i + width // 2
+    position = float((rot[centre] - rot[0]) / span) if span > 0 else 1.0
+    return float(smooth[i]), centre, position
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class StepRecord:
+    """Time series of one preshear or shear step, each array shape (n,).
+
+    Attributes:
+        kind: "preshear" | "shear".
+        target_stress: σ the servo holds, Pa.
+        time: s since the start of the test. rotation: head rotation since the step's start, rad.
+        shear_stress: τ from the head torque, Pa. normal_stress: σ measured on the head, Pa.
+        bed_height: height of the head's lower face (blade tips excluded) above the base, m.
+    """
+
+    kind: str
+    target_stress: float
+    time: np.ndarray
+    rotation: np.ndarray
+    shear_stress: np.ndarray
+    normal_stress: np.ndarray
+    bed_height: np.ndarray
+
+    CHANNELS = ("time", "rotation", "shear_stress", "normal_stress", "bed_height")
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Who made a result, and how."""
+
+    backend: str
+    engine_version: str
+    spec_hash: str
+    seed: int
+    wall_time: float
+    particle_count: int
+    threads: int = 1
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ShearTestResult:
+    """A whole shear test: the steps' time series and what is read off them.
+
+    Arrays indexed by shear step k (shape (k,)): ``peak_shear_stress`` (Pa), ``peak_normal_stress``
+    (σ measured at the peak, Pa), ``target_normal_stress`` (Pa), ``peak_position`` (fraction of the
+    window), ``bulk_density`` (after the preceding preshear, kg/m³), ``preshear_shear_stress``
+    (steady τ of the preceding preshear, Pa), ``inertial_number``.
+    """
+
+    steps: tuple[StepRecord, ...]
+    peak_shear_stress: np.ndarray
+    peak_normal_stress: np.ndarray
+    target_normal_stress: np.ndarray
+    peak_position: np.ndarray
+    bulk_density: np.ndarray
+    preshear_shear_stress: np.ndarray
+    preshear_normal_stress: np.ndarray
+    inertial_number: np.ndarray
+    provenance: Provenance
+    warnings: tuple[str, ...] = ()
+
+    @classmethod
+    def from_steps(cls, spec: ShearCellSpec, steps: list[StepRecord], bulk_density: list[float],
+                   provenance: Provenance, warnings: list[str] | None = None) -> "ShearTestResult":
+        """Read peaks, preshear steady values and inertial numbers off the steps, the same way for
+        every backend. ``bulk_density[k]`` is the bed's density after the k-th preshear (kg/m³)."""
+        warns = list(warnings or [])
+        shear = [s for s in steps if s.kind == "shear"]
+        pre = [s for s in steps if s.kind == "preshear"]
+        peaks, sig, pos, inert, tau_pre, sig_pre = [], [], [], [], [], []
+        for k, s in enumerate(shear):
+            tau_p, i, where = find_peak(s.rotation, s.shear_stress, spec.procedure.peak_window)
+            peaks.append(tau_p)
+            sig.append(float(s.normal_stress[i]) if i >= 0 else float("nan"))
+            pos.append(where)
+            inert.append(inertial_number(spec, s.target_stress))
+            if where > 0.95:
+                warns.append(f"shear step {k} (σ = {s.target_stress:.0f} Pa): peak at the window's end "
+                             f"({where:.2f}); the shear rotation may be too short")
+        for s in pre:
+            tail = slice(int(0.6 * s.shear_stress.size), None)
+            tau_pre.append(float(np.mean(s.shear_stress[tail])) if s.shear_stress.size else float("nan"))
+            sig_pre.append(float(np.mean(s.normal_stress[tail])) if s.normal_stress.size else float("nan"))
+        i_max = max(inert, default=0.0)
+        if i_max > 1e-2:
+            warns.append(f"inertial number up to {i_max:.1e} > 1e-2: the shear was not quasi-static; "
+                         "lower procedure.rotation_rate")
+        n = len(shear)
+        return cls(
+            steps=tuple(steps),
+            peak_shear_stress=np.asarray(peaks, dtype=float),
+            peak_normal_stress=np.asarray(sig, dtype=float),
+            target_normal_stress=np.asarray([s.target_stress for s in shear], dtype=float),
+            peak_position=np.asarray(pos, dtype=float),
+            bulk_density=np.asarray(bulk_density[:n], dtype=float),
+            preshear_shear_stress=np.asarray(tau_pre[:n], dtype=float),
+            preshear_normal_stress=np.asarray(sig_pre[:n], dtype=float),
+            inertial_number=np.asarray(inert, dtype=float),
+            provenance=provenance,
+            warnings=tuple(warns),
+        )
+
+    def is_finite(self) -> bool:
+        """True when every peak and measured σ is a finite number."""
+        return bool(np.all(np.isfinite(self.peak_shear_stress)) and np.all(np.isfinite(self.peak_normal_stress)))
+
+    def yield_locus(self, against: Literal["target", "measured"] = "target") -> YieldLocus:
+        """Fit the locus against the servo's target σ (the paper's way) or the σ measured at each peak."""
+        sigma = self.target_normal_stress if against == "target" else self.peak_normal_stress
+        return YieldLocus.fit(sigma, self.peak_shear_stress)

@@ -1,0 +1,66 @@
+"""The Simulator protocol: what a DEM backend implements.
+
+A backend is a class with a ``name``, a ``capabilities()`` set and ``simulate(spec, workdir)``.
+It is registered by a plugin through the ``calibrax_simulators`` hook (see
+:mod:`calibrax.plugins.hookspecs`). The core never imports a backend.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+
+#: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
+#: lacks is refused by :func:`check_capabilities` before anything runs.
+KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction"})
+
+
+@runtime_checkable
+class Simulator(Protocol):
+    """A DEM backend that runs one FT4 shear test.
+
+    ``simulate`` must be deterministic for a given spec (seed included) and thread count, write
+    anything it needs under ``workdir`` only, and raise
+    :class:`calibrax.errors.SimulationFailed` (with the engine's log tail) on a crash, a NaN, a
+    blow-up or a timeout.
+    """
+
+    name: str
+
+    def capabilities(self) -> frozenset[str]:
+        """The optional effects this backend can model (subset of ``KNOWN_CAPABILITIES``)."""
+        ...
+
+    def version(self) -> str:
+        """Engine name and version, e.g. ``"LIGGGHTS 3.8.0"``."""
+        ...
+
+    def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
+        """Run the whole test (fill, then preshear/shear for every step) and return its result."""
+        ...
+
+
+def required_capabilities(spec: ShearCellSpec) -> set[str]:
+    """The optional effects a spec switches on."""
+    need = set()
+    if spec.geometry.wall_friction > 0:
+        need.add("wall_friction")
+    if spec.size_distribution.kind != "mono":
+        need.add("size_distribution")
+    if spec.material.cohesion_energy_density > 0:
+        need.add("cohesion")
+    if spec.geometry.base_ribs > 0:
+        need.add("base_ribs")
+    return need
+
+
+def check_capabilities(simulator: Simulator, spec: ShearCellSpec) -> None:
+    """Refuse a spec that asks for an effect the backend cannot model."""
+    from calibrax.errors import ConfigError
+
+    missing = required_capabilities(spec) - set(simulator.capabilities())
+    if missing:
+        raise ConfigError("simulator", f"{simulator.name} cannot model {sorted(missing)}; "
+                          f"it models {sorted(simulator.capabilities())}")

@@ -1,0 +1,316 @@
+"""The campaign's memory: one crash-safe HDF5 file, and a lock.
+
+Layout (``/`` attrs: format, calibrax version, created, search hash, resolved config as JSON)::
+
+    /points/p000007                 attrs: batch, unit (d,), natural (d,), names, seeds (k,), proposed_at
+    /points/p000007/sim0            attrs: status (done|failed), seed, wall_time, provenance, reason, log_tail
+    /points/p000007/sim0/peaks      datasets: peak_shear_stress (k,), peak_normal_stress (k,), …
+    /points/p000007/sim0/steps/s00  datasets: time, rotation, shear_stress, normal_stress, bed_height (n,)
+    /points/p000007/metric          attrs: value, uncertainty, features (JSON)
+    /models/b0003                   attrs: batch, acquisition, hyperparameters (JSON)
+
+HDF5 is not journaled, so every change is written to a copy beside the store, flushed to disk and
+renamed over it (``os.replace`` is atomic on POSIX): a kill -9 at any instant leaves either the old
+or the new store, never a torn one. A points's proposal is recorded before it runs, so a resumed
+campaign re-runs exactly the simulations that were in flight. An exclusive ``flock`` on
+``<store>.lock`` keeps two campaigns off one store; the kernel drops it when the holder dies.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import h5py
+import numpy as np
+
+from calibrax.core.metric import MetricValue
+from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+from calibrax.errors import StoreError, StoreLockedError
+
+FORMAT = "calibrax-store/1"
+RESULT_ARRAYS = ("peak_shear_stress", "peak_normal_stress", "target_normal_stress", "peak_position",
+                 "bulk_density", "preshear_shear_stress", "preshear_normal_stress", "inertial_number")
+
+
+@dataclass
+class SimulationRecord:
+    """One simulation of a point (one seed)."""
+
+    index: int
+    seed: int
+    status: str  # "pending" | "done" | "failed"
+    wall_time: float = float("nan")
+    reason: str = ""
+    log_tail: str = ""
+    kind: str = ""
+    provenance: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
+class PointRecord:
+    """One proposed parameter point and what became of it."""
+
+    id: int
+    batch: int
+    unit: np.ndarray
+    natural: np.ndarray
+    names: list[str]
+    acquisition: str
+    sims: list[SimulationRecord]
+    metric: MetricValue | None = None
+
+    @property
+    def status(self) -> str:
+        """"done" (metric known), "failed" (every simulation finished, no metric) or "pending"."""
+        if self.metric is not None:
+            return "done"
+        if self.sims and all(s.status != "pending" for s in self.sims):
+            return "failed"
+        return "pending"
+
+    def params(self) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.names, self.natural)}
+
+
+def _fsync_path(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+class CampaignStore:
+    """A campaign's HDF5 store. Use :meth:`open` (which locks) as a context manager."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._lock_fd: int | None = None
+
+    # ------------------------------------------------------------------------- locking
+    @property
+    def lock_path(self) -> Path:
+        return self.path.with_name(self.path.name + ".lock")
+
+    @property
+    def tmp_path(self) -> Path:
+        return self.path.with_name(self.path.name + ".tmp")
+
+    def acquire(self) -> "CampaignStore":
+        """Take the store's exclusive lock or raise :class:`StoreLockedError`."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise StoreLockedError(f"store {self.path} is in use by another campaign (pid {holder}); "
+                                   "wait for it to finish or stop it, then run again") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        self._lock_fd = fd
+        if self.tmp_path.exists():  # a half-written copy left by a killed campaign
+            self.tmp_path.unlink()
+        return self
+
+    def release(self) -> None:
+        if self._lock_fd is not None:
+            fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
+            os.close(self._lock_fd)
+            self._lock_fd = None
+
+    def __enter__(self) -> "CampaignStore":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+    # ------------------------------------------------------------------------- atomic writes
+    def _mutate(self, change: Callable[[h5py.File], Any]) -> Any:
+        """Apply ``change`` to a copy of the store, flush it, and rename it over the store."""
+        if self._lock_fd is None:
+            raise StoreError(f"store {self.path} is not locked for writing")
+        tmp = self.tmp_path
+        try:
+            if self.path.exists():
+                shutil.copyfile(self.path, tmp)
+            with h5py.File(tmp, "a") as f:
+                out = change(f)
+                f.flush()
+            _fsync_path(tmp)
+            os.replace(tmp, self.path)
+            _fsync_path(self.path.parent)
+        except OSError as exc:
+            raise StoreError(f"cannot write store {self.path}: {exc}; the store keeps its last good state") from exc
+        return out
+
+    def _read(self) -> h5py.File:
+        if not self.path.exists():
+            raise StoreError(f"store {self.path} does not exist")
+        try:
+            return h5py.File(self.path, "r")
+        except OSError as exc:
+            raise StoreError(f"store {self.path} cannot be opened as HDF5: {exc}") from exc
+
+    # ------------------------------------------------------------------------- campaign level
+    def initialise(self, search_hash: str, config: dict[str, Any], calibrax_version: str) -> bool:
+        """Create the store for a config, or check that it belongs to it. True if it was created."""
+        if self.path.exists():
+            with self._read() as f:
+                if f.attrs.get("format") != FORMAT:
+                    raise StoreError(f"{self.path} is not a calibrax store (format {f.attrs.get('format')!r})")
+                stored = str(f.attrs.get("search_hash"))
+            if stored != search_hash:
+                raise StoreError(f"store {self.path} was made by a campaign with different settings "
+                                 f"(search hash {stored} ≠ {search_hash}); give a new store path, or restore "
+                                 "the campaign file it was made with (only budget, executor and paths may change)")
+            return False
+
+        def create(f: h5py.File) -> None:
+            f.attrs["format"] = FORMAT
+            f.attrs["calibrax_version"] = calibrax_version
+            f.attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+            f.attrs["search_hash"] = search_hash
+            f.attrs["config"] = json.dumps(config)
+            f.create_group("points")
+            f.create_group("models")
+
+        self._mutate(create)
+        return True
+
+    def config(self) -> dict[str, Any]:
+        with self._read() as f:
+            return json.loads(f.attrs["config"])
+
+    def add_batch(self, batch: int, unit: np.ndarray, natural: np.ndarray, names: list[str], seeds: list[list[int]],
+                  acquisition: str, model: dict[str, Any] | None) -> list[int]:
+        """Record proposed points (shape (q, d)) and the model they came from; return their ids."""
+
+        def add(f: h5py.File) -> list[int]:
+            start = len(f["points"])
+            ids = []
+            for j in range(len(unit)):
+                pid = start + j
+                g = f["points"].create_group(f"p{pid:06d}")
+                g.attrs.update({"batch": batch, "unit": np.asarray(unit[j], float),
+                                "natural": np.asarray(natural[j], float), "names": json.dumps(names),
+                                "seeds": np.asarray(seeds[j], dtype=np.int64), "acquisition": acquisition,
+                                "proposed_at": time.time()})
+                ids.append(pid)
+            if model is not None:
+                m = f["models"].create_group(f"b{batch:04d}")
+                m.attrs.update({"batch": batch, "acquisition": acquisition, "hyperparameters": json.dumps(model)})
+            return ids
+
+        return self._mutate(add)
+
+    def add_simulation(self, point_id: int, index: int, seed: int, result: ShearTestResult | None = None, *,
+                       reason: str = "", log_tail: str = "", kind: str = "", wall_time: float = float("nan"),
+                       metric: MetricValue | None = None, metric_error: str = "") -> None:
+        """Record one finished simulation (a result, or a failure with its reason and log tail), and
+        the point's metric when it is the point's last simulation."""
+
+        def add(f: h5py.File) -> None:
+            g = f["points"][f"p{point_id:06d}"]
+            name = f"sim{index}"
+            if name in g:
+                del g[name]
+            s = g.create_group(name)
+            s.attrs.update({"seed": seed, "wall_time": wall_time, "finished_at": time.time()})
+            if result is None:
+                s.attrs.update({"status": "failed", "reason": reason, "log_tail": log_tail[-8000:], "kind": kind})
+            else:
+                _write_result(s, result)
+            if metric is not None:
+                m = g.require_group("metric")
+                m.attrs.update({"value": metric.value, "uncertainty": metric.uncertainty,
+                                "features": json.dumps(metric.features)})
+            if metric_error:
+                g.attrs["metric_error"] = metric_error
+
+        self._mutate(add)
+
+    # ------------------------------------------------------------------------- reading
+    def points(self) -> list[PointRecord]:
+        """Every point in proposal order."""
+        out = []
+        with self._read() as f:
+            for key in sorted(f["points"]):
+                g = f["points"][key]
+                seeds = [int(s) for s in g.attrs["seeds"]]
+                sims = []
+                for i, seed in enumerate(seeds):
+                    s = g.get(f"sim{i}")
+                    if s is None:
+                        sims.append(SimulationRecord(i, seed, "pending"))
+                        continue
+                    sims.append(SimulationRecord(
+                        i, seed, str(s.attrs["status"]), float(s.attrs.get("wall_time", np.nan)),
+                        str(s.attrs.get("reason", "")), str(s.attrs.get("log_tail", "")), str(s.attrs.get("kind", "")),
+                        json.loads(s.attrs.get("provenance", "{}")), json.loads(s.attrs.get("warnings", "[]"))))
+                metric = None
+                if "metric" in g:
+                    m = g["metric"].attrs
+                    metric = MetricValue(float(m["value"]), float(m["uncertainty"]), json.loads(m["features"]))
+                out.append(PointRecord(int(key[1:]), int(g.attrs["batch"]), np.asarray(g.attrs["unit"], float),
+                                       np.asarray(g.attrs["natural"], float), json.loads(g.attrs["names"]),
+                                       str(g.attrs["acquisition"]), sims, metric))
+        return out
+
+    def models(self) -> dict[int, dict[str, Any]]:
+        """{batch: hyperparameters} of every fitted model."""
+        with self._read() as f:
+            return {int(g.attrs["batch"]): json.loads(g.attrs["hyperparameters"]) for g in f["models"].values()}
+
+    def result(self, point_id: int, index: int = 0) -> ShearTestResult:
+        """The stored result of one simulation."""
+        with self._read() as f:
+            g = f["points"].get(f"p{point_id:06d}/sim{index}")
+            if g is None or g.attrs["status"] != "done":
+                raise StoreError(f"point {point_id} simulation {index} has no result in {self.path}")
+            return _read_result(g)
+
+    def iter_results(self) -> Iterator[tuple[int, int, ShearTestResult]]:
+        """(point id, simulation index, result) of every successful simulation."""
+        for p in self.points():
+            for s in p.sims:
+                if s.status == "done":
+                    yield p.id, s.index, self.result(p.id, s.index)
+
+
+def _write_result(group: h5py.Group, result: ShearTestResult) -> None:
+    prov = result.provenance
+    group.attrs.update({"status": "done", "provenance": json.dumps({
+        "backend": prov.backend, "engine_version": prov.engine_version, "spec_hash": prov.spec_hash,
+        "seed": prov.seed, "wall_time": prov.wall_time, "particle_count": prov.particle_count,
+        "threads": prov.threads, "extra": prov.extra}, default=str), "warnings": json.dumps(list(result.warnings))})
+    peaks = group.create_group("peaks")
+    for name in RESULT_ARRAYS:
+        peaks.create_dataset(name, data=np.asarray(getattr(result, name), dtype=float))
+    steps = group.create_group("steps")
+    for i, step in enumerate(result.steps):
+        s = steps.create_group(f"s{i:02d}")
+        s.attrs.update({"kind": step.kind, "target_stress": step.target_stress})
+        for ch in StepRecord.CHANNELS:
+            s.create_dataset(ch, data=np.asarray(getattr(step, ch), dtype=float))
+
+
+def _read_result(group: h5py.Group) -> ShearTestResult:
+    prov = json.loads(group.attrs["provenance"])
+    steps = []
+    for key in sorted(group["steps"]):
+        s = group["steps"][key]
+        steps.append(StepRecord(str(s.attrs["kind"]), float(s.attrs["target_stress"]),
+                                *(s[ch][()] for ch in StepRecord.CHANNELS)))
+    arrays = {name: group["peaks"][name][()] for name in RESULT_ARRAYS}
+    return ShearTestResult(steps=tuple(steps), provenance=Provenance(**prov),
+                           warnings=tuple(json.loads(group.attrs.get("warnings", "[]"))), **arrays)

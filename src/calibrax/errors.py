@@ -1,0 +1,73 @@
+"""The one exception hierarchy of calibrax.
+
+Every error a user can meet is a :class:`CalibraxError`; its message says what
+is wrong *and* what to do about it. The CLI turns :class:`ConfigError` (and
+other user-input errors) into exit code 2 and prints only the message.
+"""
+
+from __future__ import annotations
+
+
+class CalibraxError(Exception):
+    """Base class of every calibrax error."""
+
+    exit_code: int = 1
+
+
+class ConfigError(CalibraxError, ValueError):
+    """A campaign file, a spec or an experiment file is invalid.
+
+    ``key`` is the dotted path of the offending key (``"parameters.youngs_modulus.low"``)
+    or the file name; the message states what is allowed.
+    """
+
+    exit_code = 2
+
+    def __init__(self, key: str, message: str) -> None:
+        self.key = key
+        self.message = message
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+class SpecError(ConfigError):
+    """A :class:`~calibrax.core.sheartest.ShearCellSpec` is physically invalid."""
+
+
+class ExperimentError(ConfigError):
+    """An experiment file is missing, malformed or has too few points."""
+
+
+class PluginError(CalibraxError):
+    """A plugin is unknown, broken, or does not implement its interface."""
+
+    exit_code = 2
+
+
+class SimulationFailed(CalibraxError):
+    """A simulation crashed, returned NaN, blew up or ran past its timeout.
+
+    A failed simulation is *data*: the campaign records ``reason`` and
+    ``log_tail`` (the last lines of the engine's own log) and goes on.
+    """
+
+    def __init__(self, reason: str, log_tail: str = "", *, kind: str = "crash") -> None:
+        self.reason = reason
+        self.log_tail = log_tail
+        self.kind = kind  # "crash" | "nan" | "timeout" | "unstable" | "invalid"
+        super().__init__(reason)
+
+
+class StoreError(CalibraxError):
+    """The campaign store cannot be read, written, locked, or does not match the config."""
+
+    exit_code = 2
+
+
+class StoreLockedError(StoreError):
+    """Another campaign holds the store."""
+
+
+class EngineNotFound(CalibraxError):
+    """A backend's engine binary is not installed; the message says how to install it."""
+
+    exit_code = 2

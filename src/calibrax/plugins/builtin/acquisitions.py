@@ -1,0 +1,118 @@
+"""Builtin acquisitions: ``qei`` (the paper's q-point EI), ``qlogei``, ``qnei`` and ``sobol``.
+
+All work in the unit cube on the :class:`~calibrax.core.surrogate.Kriging` model of −distance,
+through BoTorch's Monte-Carlo acquisition functions and ``optimize_acqf``.
+"""
+
+from __future__ import annotations
+
+import abc
+import warnings
+
+import numpy as np
+import torch
+
+from calibrax.core.acquisition import Observations
+from calibrax.core.parameters import ParameterSpace
+from calibrax.core.surrogate import DTYPE, Kriging
+from calibrax.errors import ConfigError
+from calibrax.plugins.hookspecs import hookimpl
+
+
+class _BoTorchAcquisition(abc.ABC):
+    """Shared optimisation of a BoTorch MC acquisition over the unit cube."""
+
+    name = ""
+    needs_model = True
+    OPTIONS = {"num_restarts": int, "raw_samples": int, "mc_samples": int}
+
+    def __init__(self, num_restarts: int = 10, raw_samples: int = 256, mc_samples: int = 256) -> None:
+        for key, v in (("num_restarts", num_restarts), ("raw_samples", raw_samples), ("mc_samples", mc_samples)):
+            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+                raise ConfigError(f"acquisition.{key}", f"must be an integer ≥ 1, got {v!r}")
+        self.num_restarts, self.raw_samples, self.mc_samples = num_restarts, raw_samples, mc_samples
+
+    @abc.abstractmethod
+    def build(self, model: Kriging, observations: Observations, pending: torch.Tensor | None, sampler):
+        """The BoTorch acquisition function to maximise."""
+
+    def propose(self, model: Kriging | None, space: ParameterSpace, observations: Observations, q: int, *,
+                pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+        from botorch.optim import optimize_acqf
+        from botorch.sampling import SobolQMCNormalSampler
+
+        if model is None:
+            raise ConfigError("acquisition", f"{self.name} needs a fitted model")
+        torch.manual_seed(seed)
+        sampler = SobolQMCNormalSampler(sample_shape=torch.Size([self.mc_samples]), seed=seed)
+        x_pending = None if pending is None or len(pending) == 0 else torch.as_tensor(pending, dtype=DTYPE)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # BoTorch's advice to prefer qLogEI: qei is the paper's choice
+            acqf = self.build(model, observations, x_pending, sampler)
+        bounds = torch.stack([torch.zeros(space.dim, dtype=DTYPE), torch.ones(space.dim, dtype=DTYPE)])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cand, _ = optimize_acqf(acqf, bounds=bounds, q=q, num_restarts=self.num_restarts,
+                                    raw_samples=self.raw_samples, options={"seed": seed})
+        return cand.detach().numpy().reshape(q, space.dim)
+
+
+class QExpectedImprovement(_BoTorchAcquisition):
+    """q-point Expected Improvement (the paper's 2-point EI), best_f = the best observed distance."""
+
+    name = "qei"
+
+    def build(self, model, observations, pending, sampler):
+        from botorch.acquisition import qExpectedImprovement
+
+        return qExpectedImprovement(model.model, best_f=model.train_y.max(), sampler=sampler, X_pending=pending)
+
+
+class QLogExpectedImprovement(_BoTorchAcquisition):
+    """qLogEI: the same criterion on a log scale, numerically robust when EI is tiny."""
+
+    name = "qlogei"
+
+    def build(self, model, observations, pending, sampler):
+        from botorch.acquisition.logei import qLogExpectedImprovement
+
+        return qLogExpectedImprovement(model.model, best_f=model.train_y.max(), sampler=sampler, X_pending=pending)
+
+
+class QNoisyExpectedImprovement(_BoTorchAcquisition):
+    """qNEI: integrates over the noisy incumbent — the right choice for stochastic DEM."""
+
+    name = "qnei"
+
+    def build(self, model, observations, pending, sampler):
+        from botorch.acquisition import qNoisyExpectedImprovement
+
+        return qNoisyExpectedImprovement(model.model, X_baseline=model.train_x, sampler=sampler,
+                                         X_pending=pending, prune_baseline=True)
+
+
+class SobolAcquisition:
+    """Space-filling baseline: the next points of a scrambled Sobol sequence (ignores the model)."""
+
+    name = "sobol"
+    needs_model = False
+    OPTIONS: dict[str, type] = {}
+
+    def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
+                pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+        return sobol_points(space.dim, q, seed=seed, skip=len(observations.x) + (0 if pending is None else len(pending)))
+
+
+def sobol_points(dim: int, n: int, seed: int = 0, skip: int = 0) -> np.ndarray:
+    """``n`` scrambled Sobol points in [0, 1]^dim, shape (n, dim), after skipping ``skip``."""
+    from torch.quasirandom import SobolEngine
+
+    engine = SobolEngine(dimension=dim, scramble=True, seed=seed)
+    if skip:
+        engine.fast_forward(skip)
+    return engine.draw(n, dtype=DTYPE).numpy()
+
+
+@hookimpl
+def calibrax_acquisitions() -> list[type]:
+    return [QExpectedImprovement, QLogExpectedImprovement, QNoisyExpectedImprovement, SobolAcquisition]

@@ -1,0 +1,80 @@
+"""Shared fixtures: the analytic TEST DOUBLE campaign set-up (core tests only)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+DOUBLE_MODULE = "tests.doubles.analytic_simulator"
+TRUE_E, TRUE_MU = 2.0e10, 0.45
+
+
+def double_env(**extra: str) -> dict[str, str]:
+    """Environment for a subprocess that sees the analytic test double."""
+    env = dict(os.environ)
+    env["CALIBRAX_PLUGINS"] = DOUBLE_MODULE
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env.update(extra)
+    return env
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _register_double() -> None:
+    """Let in-process tests see the double too (the manager reads CALIBRAX_PLUGINS once)."""
+    os.environ["CALIBRAX_PLUGINS"] = DOUBLE_MODULE
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+
+
+def write_double_experiment(path: Path, e: float = TRUE_E, mu: float = TRUE_MU) -> Path:
+    """A pseudo-experiment made by the analytic double at (e, mu), three replicates with a small
+    known scatter; the header says so."""
+    from tests.doubles.analytic_simulator import true_locus
+
+    c, aif = true_locus(e, mu)
+    slope = np.tan(np.radians(aif))
+    offsets = {1: (0.0, 0.0), 2: (40.0, 0.012), 3: (-40.0, -0.012)}
+    lines = [f"# pseudo-experiment from the analytic TEST DOUBLE at E = {e:g} Pa, mu_s = {mu:g}",
+             "normal_stress_pa,peak_shear_stress_pa,replicate"]
+    for rep, (dc, ds) in offsets.items():
+        for sigma in (9000.0, 8000.0, 7000.0, 6000.0):
+            lines.append(f"{sigma:.0f},{c + dc + sigma * (slope + ds):.3f},{rep}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_double_campaign(folder: Path, **changes) -> Path:
+    """A campaign file for the analytic double in ``folder``; ``changes`` update its keys."""
+    write_double_experiment(folder / "exp.csv")
+    config = {
+        "name": "double",
+        "simulator": "analytic_double",
+        "experiment": "exp.csv",
+        "cell": {"preset": "tiny"},
+        "parameters": {"youngs_modulus": {"low": 5.0e9, "high": 5.0e10, "log": True},
+                       "sliding_friction": {"low": 0.1, "high": 0.9}},
+        "metric": "c_aif",
+        "acquisition": {"name": "qei", "q": 2},
+        "budget": {"initial": 4, "iterations": 6},
+        "executor": {"name": "local", "workers": 2},
+        "store": "runs/double.h5",
+        "seed": 3,
+    }
+    config.update(changes)
+    path = folder / "campaign.yaml"
+    path.write_text(yaml.safe_dump(config, sort_keys=False))
+    return path
+
+
+def calibrax_cli(*args: str, env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
+    """Run the real ``calibrax`` command line in a subprocess."""
+    return subprocess.run([sys.executable, "-m", "calibrax.cli", *args], capture_output=True, text=True,
+                          env=env or double_env(), timeout=timeout, cwd=ROOT)

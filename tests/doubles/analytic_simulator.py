@@ -1,0 +1,85 @@
+"""TEST DOUBLE — an analytic stand-in for a DEM backend, for unit and integration tests of the
+core only (the campaign loop, the store, the CLI). It is not a simulator of anything.
+
+Registered as simulator ``analytic_double`` through ``CALIBRAX_PLUGINS=tests.doubles.analytic_simulator``.
+Its yield locus is a known function of (E, μs):
+
+    AIF = atan(0.25 + 0.7 μs),   C = 300 Pa + 400 Pa · (log10(E / Pa) − 10) + 200 Pa · μs
+
+and each shear step's τ curve rises to its peak at 0.05 rad and softens after it.
+Environment knobs for fault tests: ``CALIBRAX_DOUBLE_SLEEP`` (seconds per simulation),
+``CALIBRAX_DOUBLE_FAIL_ABOVE_MU`` (raise SimulationFailed when μs is above it).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from calibrax import hookimpl
+from calibrax.core.sheartest import Provenance, ShearCellSpec, ShearTestResult, StepRecord
+from calibrax.errors import SimulationFailed
+
+
+def true_locus(youngs_modulus: float, sliding_friction: float) -> tuple[float, float]:
+    """(C in Pa, AIF in degrees) of the double at (E, μs)."""
+    aif = math.degrees(math.atan(0.25 + 0.7 * sliding_friction))
+    c = 300.0 + 400.0 * (math.log10(youngs_modulus) - 10.0) + 200.0 * sliding_friction
+    return c, aif
+
+
+def curve(rotation: np.ndarray, peak: float, residual: float = 0.85) -> np.ndarray:
+    """τ(θ): rises to ``peak`` at θ = 0.05 rad, then softens towards ``residual`` × peak."""
+    theta_p = 0.05
+    rise = peak * (rotation / theta_p) * np.exp(1.0 - rotation / theta_p)
+    return np.where(rotation <= theta_p, rise, residual * peak + (1 - residual) * rise)
+
+
+class AnalyticDoubleSimulator:
+    """TEST DOUBLE of a Simulator with a known, deterministic yield locus."""
+
+    name = "analytic_double"
+
+    def capabilities(self) -> frozenset[str]:
+        return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction"})
+
+    def version(self) -> str:
+        return "analytic-double 1.0"
+
+    def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
+        t0 = time.perf_counter()
+        m = spec.material
+        time.sleep(float(os.environ.get("CALIBRAX_DOUBLE_SLEEP", "0")))
+        fail_above = os.environ.get("CALIBRAX_DOUBLE_FAIL_ABOVE_MU")
+        if fail_above is not None and m.sliding_friction > float(fail_above):
+            raise SimulationFailed(f"double told to fail at μs = {m.sliding_friction:.3f}", "double log tail",
+                                   kind="unstable")
+        c, aif = true_locus(m.youngs_modulus, m.sliding_friction)
+        slope = math.tan(math.radians(aif))
+        p = spec.procedure
+        steps, density = [], []
+        t = 0.0
+        for sigma in p.shear_stresses:
+            for kind, target, span in (("preshear", p.preshear_stress, p.preshear_rotation),
+                                       ("shear", sigma, p.shear_rotation)):
+                rot = np.linspace(0.0, span, 201)
+                peak = c + target * slope
+                tau = curve(rot, peak) if kind == "shear" else np.full(rot.size, peak)
+                times = t + rot / p.rotation_rate
+                t = float(times[-1])
+                steps.append(StepRecord(kind, target, times, rot, tau, np.full(rot.size, target),
+                                        np.full(rot.size, spec.geometry.fill_height)))
+            density.append(0.6 * m.density)
+        prov = Provenance(self.name, self.version(), spec.spec_hash(), spec.numerics.seed,
+                          time.perf_counter() - t0, spec.particle_count)
+        (Path(workdir) / "double.log").write_text(f"analytic double at E={m.youngs_modulus} mu={m.sliding_friction}\n")
+        return ShearTestResult.from_steps(spec, steps, density, prov)
+
+
+@hookimpl
+def calibrax_simulators() -> list[type]:
+    return [AnalyticDoubleSimulator]
