@@ -117,6 +117,8 @@ class YieldLocus:
         b = -2.0 * sp - 2.0 * c0 * t * cos2
         k = sp**2 + tp**2 - c0**2 * cos2
         disc = b * b - 4.0 * a * k
+        if -1e-9 * b * b < disc < 0:  # preshear point on the locus: tangent there (disc = 0 up to rounding)
+            disc = 0.0
         if disc < 0 or a <= 0:
             nan = float("nan")
             return MohrAnalysis(nan, nan, nan, nan)

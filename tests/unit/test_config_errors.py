@@ -1,0 +1,92 @@
+"""Bad campaign files: each gives a ConfigError naming the key and what is allowed, exit code 2,
+and nothing written."""
+
+from __future__ import annotations
+
+import hashlib
+
+import pytest
+import yaml
+
+from calibrax.cli import main
+from tests.conftest import calibrax_cli, write_double_campaign
+
+CASES = [
+    # (change to the campaign mapping, text the message must contain)
+    (lambda c: c.update(colour="red"), "colour: unknown key; allowed:"),
+    (lambda c: c.pop("simulator"), "simulator: is required"),
+    (lambda c: c.update(simulator="fortran_dem"), "simulator: unknown simulator 'fortran_dem'; known: ["),
+    (lambda c: c.update(acquisition={"name": "ucb", "q": 2}), "acquisition: unknown acquisition 'ucb'; known: ['qei'"),
+    (lambda c: c.update(metric="rmse"), "metric: unknown metric 'rmse'; known: ['c_aif']"),
+    (lambda c: c["parameters"]["sliding_friction"].update(low=0.9, high=0.1), "parameters.sliding_friction: low must be < high"),
+    (lambda c: c["parameters"]["youngs_modulus"].update(low=".5e9"), "parameters.youngs_modulus.low: must be a number"),
+    (lambda c: c.update(budget={"initial": 1, "iterations": 3}), "budget.initial: must be an integer ≥ 2"),
+    (lambda c: c.update(budget={"initial": 4, "iterations": "many"}), "budget.iterations: must be an integer"),
+    (lambda c: c.update(experiment="missing.csv"), "missing.csv: file not found"),
+    (lambda c: c.update(material={"poisson_ratio": 0.7}), "material.poisson_ratio: must lie in [0, 0.5)"),
+    (lambda c: c.update(material={"restitution": float("nan")}), "material.restitution: must be a finite number"),
+    (lambda c: c.update(cell={"preset": "huge"}), "cell.preset: unknown preset 'huge'; allowed: ['paper', 'quick', 'tiny']"),
+    (lambda c: c.update(cell={"preset": "tiny", "numerics": {"dt_fraction": 2.0}}), "cell.numerics.dt_fraction: must lie in (0, 1]"),
+    (lambda c: c.update(cell={"preset": "tiny", "geometry": {"wheels": 3}}), "cell.geometry.wheels: unknown key"),
+    (lambda c: c.update(executor={"name": "local", "workers": 0}), "executor.workers: must be an integer ≥ 1"),
+    (lambda c: c.update(acquisition={"name": "qei", "q": 0}), "acquisition.q: must be an integer ≥ 1"),
+    (lambda c: c.update(store="runs/out.txt"), "store: must name an HDF5 file"),
+    (lambda c: c.update(metric={"name": "c_aif", "scale_aif_deg": -2}), "metric.scale_aif_deg: must be a finite number > 0"),
+    (lambda c: c.update(cell={"procedure": "iso_9000"}), "cell.procedure: unknown procedure 'iso_9000'"),
+]
+
+
+@pytest.mark.parametrize("change, message", CASES, ids=[m.split(":")[0] + f"-{i}" for i, (_, m) in enumerate(CASES)])
+def test_bad_config_is_refused_with_exit_2_and_nothing_written(tmp_path, capsys, change, message):
+    path = write_double_campaign(tmp_path)
+    config = yaml.safe_load(path.read_text())
+    change(config)
+    path.write_text(yaml.dump(config))
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    code = main(["run", str(path)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert message in err, err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing written, no store created
+
+
+def test_yaml_that_is_not_a_mapping_and_broken_yaml(tmp_path, capsys):
+    path = tmp_path / "c.yaml"
+    path.write_text("- just\n- a list\n")
+    assert main(["run", str(path)]) == 2 and "must be a mapping" in capsys.readouterr().err
+    path.write_text("name: [unclosed\n")
+    assert main(["run", str(path)]) == 2 and "not valid YAML" in capsys.readouterr().err
+    assert main(["run", str(tmp_path / "nope.yaml")]) == 2 and "campaign file not found" in capsys.readouterr().err
+
+
+def test_bad_config_leaves_an_existing_store_untouched(tmp_path):
+    path = write_double_campaign(tmp_path, budget={"initial": 2, "iterations": 0})
+    assert calibrax_cli("run", str(path)).returncode == 0
+    store = tmp_path / "runs/double.h5"
+    digest = hashlib.sha256(store.read_bytes()).hexdigest()
+    config = yaml.safe_load(path.read_text())
+    config["parameters"]["sliding_friction"]["low"] = 2.0
+    path.write_text(yaml.dump(config))
+    proc = calibrax_cli("run", str(path))
+    assert proc.returncode == 2 and "parameters.sliding_friction: low must be < high" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert hashlib.sha256(store.read_bytes()).hexdigest() == digest
+
+
+def test_check_prints_resolved_settings_and_writes_nothing(tmp_path):
+    path = write_double_campaign(tmp_path)
+    proc = calibrax_cli("run", str(path), "--check")
+    assert proc.returncode == 0, proc.stderr
+    assert "simulator: analytic_double" in proc.stdout and "particles" in proc.stdout and "OK" in proc.stdout
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_store_of_another_campaign_is_refused(tmp_path):
+    path = write_double_campaign(tmp_path, budget={"initial": 2, "iterations": 0})
+    assert calibrax_cli("run", str(path)).returncode == 0
+    config = yaml.safe_load(path.read_text())
+    config["parameters"]["sliding_friction"]["high"] = 0.8
+    path.write_text(yaml.dump(config))
+    proc = calibrax_cli("run", str(path))
+    assert proc.returncode == 2 and "different settings" in proc.stderr

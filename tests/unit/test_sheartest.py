@@ -1,0 +1,71 @@
+"""ShearCellSpec: the paper's eq. (1), presets, validation of bad specs, peak finding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from calibrax import ShearCellSpec, critical_time_step, find_peak, shear_stress_from_torque
+from calibrax.errors import SpecError
+
+
+def test_critical_time_step_of_table1_at_15kpa_is_the_papers_5_9_us():
+    spec = ShearCellSpec.preset("paper")
+    # σ0 = 15 kPa (the preshear stress), Table 1 material: E = 25 GPa, ν = 0.25, ρ = 3000, R = 0.9 mm
+    assert spec.numerics.stress_for_dt is None and spec.procedure.preshear_stress == 15e3
+    assert spec.critical_time_step == pytest.approx(5.89e-6, rel=2e-3)
+    assert critical_time_step(0.9e-3, 3000.0, 25e9 / (1 - 0.25**2), 15e3) == pytest.approx(5.894868e-6, rel=1e-6)
+    assert spec.time_step == pytest.approx(0.05 * spec.critical_time_step)
+
+
+def test_paper_preset_has_the_papers_31k_particles_at_34_per_diameter():
+    spec = ShearCellSpec.preset("paper")
+    assert spec.particles_per_diameter == pytest.approx(34.0)
+    assert 30_000 < spec.particle_count < 32_500  # the paper: 31k particles
+
+
+def test_procedures_paper_and_astm():
+    astm = ShearCellSpec.preset("quick", "astm_d7891")
+    assert astm.procedure.preshear_stress == 9e3 and astm.procedure.shear_stresses == (7e3, 6e3, 5e3, 4e3, 3e3)
+    assert ShearCellSpec.preset("quick").procedure.shear_stresses == (9e3, 8e3, 7e3, 6e3)
+
+
+def test_spec_roundtrips_through_dict_and_hash_is_stable():
+    spec = ShearCellSpec.preset("tiny", material={"sliding_friction": 0.3})
+    again = ShearCellSpec.from_dict(spec.to_dict())
+    assert again == spec and again.spec_hash() == spec.spec_hash()
+    assert spec.replace(numerics={"seed": 1}).spec_hash() != spec.spec_hash()
+
+
+@pytest.mark.parametrize("changes, key", [
+    ({"radius": -1e-3}, "radius"),
+    ({"material": {"poisson_ratio": 0.5}}, "material.poisson_ratio"),
+    ({"numerics": {"dt_fraction": 1.5}}, "numerics.dt_fraction"),
+    ({"procedure": {"preshear_stress": 0.0}}, "procedure.preshear_stress"),
+    ({"procedure": {"shear_stresses": (9e3, -1.0)}}, "procedure.shear_stresses"),
+    ({"geometry": {"blade_count": 400}}, "geometry.blade_count"),
+    ({"geometry": {"vessel_diameter": 4e-3, "head_radius": 1.9e-3, "hub_radius": 0.2e-3,
+                   "fill_height": 4e-3}}, "geometry.vessel_diameter"),
+    ({"material": {"sliding_friction": 0.0}, "geometry": {"base_friction": 0.0}}, "geometry.base_friction"),
+    ({"material": {"youngs_modulus": float("nan")}}, "material.youngs_modulus"),
+])
+def test_bad_specs_are_refused_with_the_field_named(changes, key):
+    with pytest.raises(SpecError) as err:
+        ShearCellSpec.preset("tiny").replace(**changes).validate()
+    assert err.value.key == key
+
+
+def test_find_peak_is_the_max_of_a_running_mean():
+    rot = np.linspace(0.0, 0.2, 401)
+    tau = 1000.0 * np.exp(-((rot - 0.05) / 0.02) ** 2)
+    rng = np.random.default_rng(0)
+    noisy = tau + rng.normal(0.0, 50.0, rot.size)
+    peak, i, where = find_peak(rot, noisy, window=0.01)
+    assert abs(rot[i] - 0.05) < 0.01 and 0.9 * 1000 < peak < 1000
+    assert where == pytest.approx(0.25, abs=0.05)
+    # a monotonic curve peaks at the window's end
+    assert find_peak(rot, rot, 0.01)[2] > 0.95
+
+
+def test_shear_stress_from_torque():
+    assert shear_stress_from_torque(2.0, 0.5) == pytest.approx(3 * 2.0 / (2 * np.pi * 0.125))
