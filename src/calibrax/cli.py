@@ -8,8 +8,8 @@ import json
 import logging
 import math
 import signal
-import sys
 import warnings
+import sys
 from pathlib import Path
 
 import yaml
@@ -134,6 +134,8 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     manager = get_manager()
     print(f"{'kind':<12} {'name':<14} {'version':<10} distribution")
     for kind in HOOKS:
+        if not manager.plugins(kind):
+            print(f"{kind:<12} (none installed)")
         for name, info in sorted(manager.plugins(kind).items()):
             print(f"{kind:<12} {name:<14} {info.version:<10} {info.distribution}")
     if manager.broken:
@@ -141,6 +143,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
         for b in manager.broken:
             print(f"  {b.entry_point} from {b.distribution}: {b.error}")
     return 0
+
+
+def _warning_to_log(message, category, *args: object, **kwargs: object) -> None:
+    logging.getLogger("calibrax").warning("%s: %s", category.__name__, message)
 
 
 def _raise_interrupt(signum: int, frame: object) -> None:
@@ -159,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     quiet = getattr(args, "quiet", False)
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO, stream=sys.stderr,
                         format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
-    warnings.filterwarnings("default", module="calibrax")
+    warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
     handlers = {"run": _cmd_run, "status": _cmd_status, "plugins": _cmd_plugins}
     try:

@@ -157,13 +157,14 @@ class Campaign:
     def _run_pending(self, store: CampaignStore, executor) -> None:
         cfg = self.config
         points = {p.id: p for p in store.points()}
-        results: dict[int, dict[int, ShearTestResult]] = {}
+        outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
         futures: dict[cf.Future, tuple[PointRecord, int, int, float]] = {}
         for p in points.values():
             pending = [s for s in p.sims if s.status == "pending"]
             if not pending:
                 continue
-            results[p.id] = {s.index: store.result(p.id, s.index) for s in p.sims if s.status == "done"}
+            outcomes[p.id] = {s.index: store.result(p.id, s.index) if s.status == "done" else None
+                              for s in p.sims if s.status != "pending"}
             for s in pending:
                 spec = point_spec(cfg.spec, p.params(), s.seed)
                 workdir = cfg.workdir / f"p{p.id:06d}-s{s.index}"
@@ -177,7 +178,7 @@ class Campaign:
             finished, waiting = cf.wait(waiting, timeout=5.0, return_when=cf.FIRST_COMPLETED)
             for fut in finished:
                 point, index, seed, t0 = futures[fut]
-                self._record(store, point, index, seed, fut, time.monotonic() - t0, results[point.id])
+                self._record(store, point, index, seed, fut, time.monotonic() - t0, outcomes[point.id])
             if time.monotonic() - last_beat >= HEARTBEAT_S and waiting:
                 last_beat = time.monotonic()
                 running = ", ".join(f"point {futures[f][0].id} ({time.monotonic() - futures[f][3]:.0f} s)"
@@ -185,23 +186,27 @@ class Campaign:
                 log.info("running: %s | %s", running, self._best_text())
 
     def _record(self, store: CampaignStore, point: PointRecord, index: int, seed: int, fut: cf.Future,
-                wall: float, done: dict[int, ShearTestResult]) -> None:
+                wall: float, outcomes: dict[int, ShearTestResult | None]) -> None:
+        """Store one finished simulation; when it is the point's last, the point's metric too."""
         cfg = self.config
         try:
-            result = fut.result()
+            result, failure = fut.result(), None
         except SimulationFailed as exc:
-            log.warning("point %d sim %d (%s, seed %d) FAILED after %.1f s [%s]: %s", point.id, index, cfg.simulator,
-                        seed, wall, exc.kind, exc.reason)
-            store.add_simulation(point.id, index, seed, None, reason=exc.reason, log_tail=exc.log_tail,
-                                 kind=exc.kind, wall_time=wall, metric=None)
-            return
-        done[index] = result
+            result, failure = None, exc
+        outcomes[index] = result
         metric, error = None, ""
-        if len(done) == cfg.seeds_per_point or all(s.status != "pending" or s.index in done for s in point.sims):
+        good = [outcomes[i] for i in sorted(outcomes) if outcomes[i] is not None]
+        if len(outcomes) == cfg.seeds_per_point and good:
             try:
-                metric = self.metric.evaluate([done[i] for i in sorted(done)], cfg.experiment)
+                metric = self.metric.evaluate(good, cfg.experiment)
             except CalibraxError as exc:
                 error = str(exc)
+        if failure is not None:
+            log.warning("point %d sim %d (%s, seed %d) FAILED after %.1f s [%s]: %s", point.id, index, cfg.simulator,
+                        seed, wall, failure.kind, failure.reason)
+            store.add_simulation(point.id, index, seed, None, reason=failure.reason, log_tail=failure.log_tail,
+                                 kind=failure.kind, wall_time=wall, metric=metric, metric_error=error)
+            return
         store.add_simulation(point.id, index, seed, result, wall_time=wall, metric=metric, metric_error=error)
         for w in result.warnings:
             log.warning("point %d sim %d: %s", point.id, index, w)
