@@ -19,6 +19,7 @@ examples:
   calibrax run examples/quickstart.yaml            run (or resume) a campaign
   calibrax run examples/quickstart.yaml --check    validate it and print the resolved settings
   calibrax status runs/quickstart.h5               points, results and the best point so far
+  calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
   calibrax plugins                                 registered simulators, metrics, acquisitions…
 """
 
@@ -43,12 +44,22 @@ def _parser() -> argparse.ArgumentParser:
                      help="validate CONFIG and every file it names, print the resolved settings, run nothing")
     run.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
     run.add_argument("-q", "--quiet", action="store_true", help="print only warnings and the final summary")
+    run.add_argument("--json", action="store_true",
+                     help="print progress as JSON lines on stdout (one event per line: campaign, proposed, started, "
+                          "running, done, failed, model, summary); human logs are silenced")
 
     status = sub.add_parser("status", help="show a campaign store: points, results, best point",
                             description="A table of every point of the store: parameters, status, C, AIF, "
                                         "distance, wall time; then the best point.")
     status.add_argument("store", type=Path, help="the campaign's HDF5 store")
     status.add_argument("--json", action="store_true", help="print machine-readable JSON instead of a table")
+
+    report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
+                            description="Write index.html (self-contained page), summary.md and PNG/SVG figures: "
+                                        "C–AIF cartography, yield loci, τ curves of the best point, surrogate "
+                                        "maps with an identifiability statement, convergence, failures.")
+    report.add_argument("store", type=Path, help="the campaign's HDF5 store")
+    report.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.report/)")
 
     sub.add_parser("plugins", help="list registered plugins and the broken ones",
                    description="Every plugin by kind, with its name, version and distribution; plugins that "
@@ -77,6 +88,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
               f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
         print("# OK: nothing was run or written")
+        return 0
+    if args.json:
+        def emit(event: dict) -> None:
+            print(json.dumps(event, default=float), flush=True)
+
+        summary = run_campaign(config, emit)
+        emit({"event": "summary", **dataclasses.asdict(summary), "store": str(summary.store)})
         return 0
     summary = run_campaign(config)
     print(f"campaign {config.name}: {summary.points} points, {summary.done} done, {summary.failed} failed; "
@@ -128,6 +146,14 @@ def _cmd_status(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from calibrax.report import build_report
+
+    page = build_report(args.store, args.output)
+    print(f"report written: {page}")
+    return 0
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from calibrax.plugins.manager import HOOKS, get_manager
 
@@ -162,12 +188,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    quiet = getattr(args, "quiet", False)
+    quiet = getattr(args, "quiet", False) or (args.command == "run" and args.json)
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO, stream=sys.stderr,
                         format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
     warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
-    handlers = {"run": _cmd_run, "status": _cmd_status, "plugins": _cmd_plugins}
+    handlers = {"run": _cmd_run, "status": _cmd_status, "report": _cmd_report, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)
     except CalibraxError as exc:

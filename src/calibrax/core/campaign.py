@@ -15,6 +15,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from calibrax.core.metric import MetricValue
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.store import CampaignStore, PointRecord
 from calibrax.core.surrogate import Kriging
-from calibrax.errors import CalibraxError, ConfigError, SimulationFailed
+from calibrax.errors import CalibraxError, SimulationFailed
 from calibrax.plugins.builtin.acquisitions import sobol_points
 from calibrax.plugins.manager import get_manager
 
@@ -73,8 +74,10 @@ def _fmt_params(params: dict[str, float]) -> str:
 class Campaign:
     """One calibration campaign bound to its config; :meth:`run` runs or resumes it."""
 
-    def __init__(self, config: CampaignConfig) -> None:
+    def __init__(self, config: CampaignConfig, listener: Callable[[dict[str, Any]], None] | None = None) -> None:
+        """``listener`` receives every progress event as a JSON-ready dict (``event``, ``message``, fields)."""
         self.config = config
+        self.listener = listener
         manager = get_manager()
         self.metric = manager.create("metric", config.metric, **config.metric_options)
         self.acquisition = manager.create("acquisition", config.acquisition, **config.acquisition_options)
@@ -87,9 +90,10 @@ class Campaign:
         from calibrax import __version__
 
         with CampaignStore(cfg.store).acquire() as store:
-            created = store.initialise(cfg.search_hash(), cfg.resolved, __version__)
-            log.info("%s campaign %r on %s (%s); store %s", "new" if created else "resuming", cfg.name,
-                     cfg.simulator, self.engine.version(), cfg.store)
+            created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
+            self._emit("campaign", f"{'new' if created else 'resuming'} campaign {cfg.name!r} on {cfg.simulator} "
+                       f"({self.engine.version()}); store {cfg.store}", resumed=not created,
+                       simulator=cfg.simulator, engine=self.engine.version(), store=str(cfg.store))
             previous = self.summary(store)
             if previous.best_id is not None:
                 self._best = (previous.best_value, previous.best_id, previous.best_params)
@@ -133,16 +137,17 @@ class Campaign:
         if not self.acquisition.needs_model:
             return self.acquisition.propose(None, cfg.space, obs, cfg.q, seed=seed), cfg.acquisition, None
         if len(obs.y) < 2:
-            log.warning("batch %d: only %d finished point(s), too few for a model; proposing space-filling points",
-                        batch, len(obs.y))
+            self._emit("fallback", f"batch {batch}: only {len(obs.y)} finished point(s), too few for a model; "
+                       "proposing space-filling points", level=logging.WARNING, batch=batch)
             return sobol_points(cfg.space.dim, cfg.q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
         t0 = time.monotonic()
         model = Kriging.fit(obs.x, obs.y, seed=seed)
         unit = self.acquisition.propose(model, cfg.space, obs, cfg.q, seed=seed)
         hyper = model.hyperparameters()
-        log.info("batch %d: Kriging on %d points (length scales %s, noise %.3g) → %s proposes %d point(s) in %.1f s",
-                 batch, len(obs.y), ", ".join(f"{v:.3g}" for v in hyper["lengthscales"]), hyper["noise"] or 0.0,
-                 cfg.acquisition, cfg.q, time.monotonic() - t0)
+        self._emit("model", f"batch {batch}: Kriging on {len(obs.y)} points (length scales "
+                   f"{', '.join(f'{v:.3g}' for v in hyper['lengthscales'])}, noise {hyper['noise'] or 0.0:.3g}) → "
+                   f"{cfg.acquisition} proposes {cfg.q} point(s) in {time.monotonic() - t0:.1f} s",
+                   batch=batch, hyperparameters=hyper)
         return unit, cfg.acquisition, hyper
 
     def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str, model: dict | None) -> None:
@@ -152,7 +157,9 @@ class Campaign:
         seeds = [[simulation_seed(cfg.seed, first + j, i) for i in range(cfg.seeds_per_point)] for j in range(len(unit))]
         ids = store.add_batch(batch, unit, natural, list(cfg.space.names), seeds, source, model)
         for pid, row in zip(ids, natural):
-            log.info("batch %d: point %d proposed by %s: %s", batch, pid, source, _fmt_params(cfg.space.as_dict(row)))
+            self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}: "
+                       f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=source,
+                       params=cfg.space.as_dict(row))
 
     def _run_pending(self, store: CampaignStore, executor) -> None:
         cfg = self.config
@@ -169,8 +176,9 @@ class Campaign:
                 spec = point_spec(cfg.spec, p.params(), s.seed)
                 workdir = cfg.workdir / f"p{p.id:06d}-s{s.index}"
                 task = SimulationTask(p.id, cfg.simulator, spec, workdir)
-                log.info("point %d sim %d: %s starts (seed %d, %s)", p.id, s.index, cfg.simulator, s.seed,
-                         _fmt_params(p.params()))
+                self._emit("started", f"point {p.id} sim {s.index}: {cfg.simulator} starts (seed {s.seed}, "
+                           f"{_fmt_params(p.params())})", point=p.id, sim=s.index, seed=s.seed,
+                           simulator=cfg.simulator, params=p.params())
                 futures[executor.submit(task)] = (p, s.index, s.seed, time.monotonic())
         last_beat = time.monotonic()
         waiting = set(futures)
@@ -181,9 +189,10 @@ class Campaign:
                 self._record(store, point, index, seed, fut, time.monotonic() - t0, outcomes[point.id])
             if time.monotonic() - last_beat >= HEARTBEAT_S and waiting:
                 last_beat = time.monotonic()
-                running = ", ".join(f"point {futures[f][0].id} ({time.monotonic() - futures[f][3]:.0f} s)"
-                                    for f in sorted(waiting, key=lambda f: futures[f][0].id))
-                log.info("running: %s | %s", running, self._best_text())
+                running = {futures[f][0].id: round(time.monotonic() - futures[f][3], 1)
+                           for f in sorted(waiting, key=lambda f: futures[f][0].id)}
+                text = ", ".join(f"point {k} ({v:.0f} s)" for k, v in running.items())
+                self._emit("running", f"running: {text} | {self._best_text()}", elapsed_s=running)
 
     def _record(self, store: CampaignStore, point: PointRecord, index: int, seed: int, fut: cf.Future,
                 wall: float, outcomes: dict[int, ShearTestResult | None]) -> None:
@@ -202,14 +211,15 @@ class Campaign:
             except CalibraxError as exc:
                 error = str(exc)
         if failure is not None:
-            log.warning("point %d sim %d (%s, seed %d) FAILED after %.1f s [%s]: %s", point.id, index, cfg.simulator,
-                        seed, wall, failure.kind, failure.reason)
+            self._emit("failed", f"point {point.id} sim {index} ({cfg.simulator}, seed {seed}) FAILED after "
+                       f"{wall:.1f} s [{failure.kind}]: {failure.reason}", level=logging.WARNING, point=point.id,
+                       sim=index, seed=seed, kind=failure.kind, reason=failure.reason, wall_s=wall)
             store.add_simulation(point.id, index, seed, None, reason=failure.reason, log_tail=failure.log_tail,
                                  kind=failure.kind, wall_time=wall, metric=metric, metric_error=error)
             return
         store.add_simulation(point.id, index, seed, result, wall_time=wall, metric=metric, metric_error=error)
         for w in result.warnings:
-            log.warning("point %d sim %d: %s", point.id, index, w)
+            self._emit("warning", f"point {point.id} sim {index}: {w}", level=logging.WARNING, point=point.id)
         peaks = ", ".join(f"{t:.0f}" for t in result.peak_shear_stress)
         msg = f"point {point.id} sim {index} done in {wall:.1f} s ({cfg.simulator}, seed {seed}): τ_peak = [{peaks}] Pa"
         if metric is not None:
@@ -220,7 +230,16 @@ class Campaign:
                 self._best = (metric.value, point.id, point.params())
         elif error:
             msg += f"; metric failed: {error}"
-        log.info("%s | %s", msg, self._best_text())
+        self._emit("done", f"{msg} | {self._best_text()}", point=point.id, sim=index, seed=seed, wall_s=wall,
+                   peaks_pa=result.peak_shear_stress.tolist(),
+                   distance=None if metric is None else metric.value,
+                   best_point=None if self._best is None else self._best[1],
+                   best_distance=None if self._best is None else self._best[0])
+
+    def _emit(self, event: str, message: str, level: int = logging.INFO, **data: Any) -> None:
+        log.log(level, "%s", message)
+        if self.listener is not None:
+            self.listener({"event": event, "time": time.time(), "message": message, **data})
 
     def _best_text(self) -> str:
         if self._best is None:
@@ -229,8 +248,6 @@ class Campaign:
         return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)})"
 
 
-def run_campaign(config: CampaignConfig) -> CampaignSummary:
-    """Run or resume the campaign of ``config``."""
-    if config.q < 1:
-        raise ConfigError("acquisition.q", "must be ≥ 1")
-    return Campaign(config).run()
+def run_campaign(config: CampaignConfig, listener: Callable[[dict[str, Any]], None] | None = None) -> CampaignSummary:
+    """Run or resume the campaign of ``config``; ``listener`` gets the progress events."""
+    return Campaign(config, listener).run()

@@ -30,6 +30,7 @@ from typing import Any, Callable, Iterator
 import h5py
 import numpy as np
 
+from calibrax.core.experiment import Experiment
 from calibrax.core.metric import MetricValue
 from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
 from calibrax.errors import StoreError, StoreLockedError
@@ -162,8 +163,10 @@ class CampaignStore:
             raise StoreError(f"store {self.path} cannot be opened as HDF5: {exc}") from exc
 
     # ------------------------------------------------------------------------- campaign level
-    def initialise(self, search_hash: str, config: dict[str, Any], calibrax_version: str) -> bool:
-        """Create the store for a config, or check that it belongs to it. True if it was created."""
+    def initialise(self, search_hash: str, config: dict[str, Any], calibrax_version: str,
+                   experiment: Experiment | None = None) -> bool:
+        """Create the store for a config (with a copy of the experiment's data, so that the store
+        alone can be reported on), or check that it belongs to it. True if it was created."""
         if self.path.exists():
             with self._read() as f:
                 if f.attrs.get("format") != FORMAT:
@@ -183,6 +186,8 @@ class CampaignStore:
             f.attrs["config"] = json.dumps(config)
             f.create_group("points")
             f.create_group("models")
+            if experiment is not None:
+                _write_experiment(f.create_group("experiment"), experiment)
 
         self._mutate(create)
         return True
@@ -266,6 +271,11 @@ class CampaignStore:
                                        str(g.attrs["acquisition"]), sims, metric))
         return out
 
+    def experiment(self) -> Experiment | None:
+        """The experiment the campaign was run against, as stored at its start."""
+        with self._read() as f:
+            return _read_experiment(f["experiment"]) if "experiment" in f else None
+
     def models(self) -> dict[int, dict[str, Any]]:
         """{batch: hyperparameters} of every fitted model."""
         with self._read() as f:
@@ -285,6 +295,29 @@ class CampaignStore:
             for s in p.sims:
                 if s.status == "done":
                     yield p.id, s.index, self.result(p.id, s.index)
+
+
+def _write_experiment(group: h5py.Group, exp: Experiment) -> None:
+    group.attrs.update({"name": exp.name, "source": exp.source, "preshear_stress": exp.preshear_stress,
+                        "preshear_shear_stress": exp.preshear_shear_stress, "files": json.dumps(list(exp.files))})
+    group.create_dataset("normal_stress", data=exp.normal_stress)
+    group.create_dataset("peak_shear_stress", data=exp.peak_shear_stress)
+    group.create_dataset("replicate", data=exp.replicate)
+    curves = group.create_group("curves")
+    for i, ((rep, sigma), (rot, tau)) in enumerate(sorted(exp.curves.items())):
+        c = curves.create_group(f"c{i:03d}")
+        c.attrs.update({"replicate": rep, "normal_stress": sigma})
+        c.create_dataset("rotation", data=rot)
+        c.create_dataset("shear_stress", data=tau)
+
+
+def _read_experiment(group: h5py.Group) -> Experiment:
+    curves = {(int(c.attrs["replicate"]), float(c.attrs["normal_stress"])): (c["rotation"][()], c["shear_stress"][()])
+              for c in group["curves"].values()}
+    a = group.attrs
+    return Experiment(str(a["name"]), group["normal_stress"][()], group["peak_shear_stress"][()],
+                      group["replicate"][()], float(a["preshear_stress"]), float(a["preshear_shear_stress"]),
+                      curves, str(a["source"]), tuple(json.loads(a["files"])))
 
 
 def _write_result(group: h5py.Group, result: ShearTestResult) -> None:

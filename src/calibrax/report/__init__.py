@@ -1,0 +1,115 @@
+"""``calibrax report``: a self-contained HTML page, PNG/SVG figures and a Markdown summary."""
+
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+
+from calibrax.report import figures
+from calibrax.report.data import CampaignData, load_campaign
+
+__all__ = ["build_report", "load_campaign", "CampaignData"]
+
+CAPTIONS = {
+    "cartography": "C–AIF cartography (the paper's figure 4): simulated points with regression error bars, "
+                   "iso-parameter lines from Kriging models of C and AIF, the experiment with its replicate spread.",
+    "yield_loci": "Yield loci of the experiment and the best simulations.",
+    "shear_curves": "Shear steps of the best point: τ and σ against the head's rotation, experiment where given.",
+    "surrogate": "Kriging surrogate of the distance: prediction and its standard deviation.",
+    "convergence": "Best distance against the number of simulations; wall time per point.",
+}
+
+
+def build_report(store: str | Path, out_dir: str | Path | None = None) -> Path:
+    """Write ``index.html``, ``summary.md`` and the figures for a store; return the HTML path."""
+    data = load_campaign(store)
+    out = Path(out_dir) if out_dir is not None else data.store.with_suffix(".report")
+    out.mkdir(parents=True, exist_ok=True)
+    files: dict[str, list[str]] = {}
+    files["cartography"] = figures.cartography(data, out)
+    files["yield_loci"] = figures.yield_loci(data, out)
+    files["shear_curves"] = figures.shear_curves(data, out)
+    files["surrogate"], statement = figures.surrogate_maps(data, out)
+    files["convergence"] = figures.convergence(data, out)
+    (out / "summary.md").write_text(_markdown(data, statement), encoding="utf-8")
+    page = out / "index.html"
+    page.write_text(_html(data, files, statement), encoding="utf-8")
+    return page
+
+
+def _best_line(data: CampaignData) -> str:
+    b = data.best
+    if b is None:
+        return "No point has finished yet."
+    params = ", ".join(f"{figures.label(n)} = {figures.scaled(n, v):.4g}" for n, v in b.record.params().items())
+    return (f"Best point {b.id}: {params}; distance {b.distance:.3g} ± {b.record.metric.uncertainty:.2g}; "
+            f"C = {b.cohesion:.0f} ± {b.cohesion_stderr:.0f} Pa, AIF = {b.aif:.1f} ± {b.aif_stderr:.1f}°.")
+
+
+def _rows(data: CampaignData) -> list[list[str]]:
+    rows = []
+    for p in data.points:
+        params = [f"{figures.scaled(n, v):.4g}" for n, v in p.record.params().items()]
+        fin = math.isfinite
+        rows.append([str(p.id), str(p.record.batch), p.record.acquisition, *params, p.record.status,
+                     f"{p.cohesion:.0f}" if fin(p.cohesion) else "", f"{p.aif:.1f}" if fin(p.aif) else "",
+                     f"{p.distance:.3g}" if fin(p.distance) else "", f"{p.wall_time:.1f}"])
+    return rows
+
+
+def _header(data: CampaignData) -> list[str]:
+    return ["point", "batch", "proposed by", *[figures.label(n) for n in data.space.names], "status", "C [Pa]",
+            "AIF [°]", "distance", "wall [s]"]
+
+
+def _markdown(data: CampaignData, statement: str) -> str:
+    cfg = data.config
+    lines = [f"# Campaign {cfg['name']}", "",
+             f"Simulator `{cfg['simulator']}`, acquisition `{cfg['acquisition']['name']}` (q = {cfg['acquisition']['q']}), "
+             f"{len(data.points)} points, {len(data.done)} finished, {len(data.failures)} failed simulation(s).", "",
+             _best_line(data), "", statement, "", "| " + " | ".join(_header(data)) + " |",
+             "|" + "---|" * len(_header(data))]
+    lines += ["| " + " | ".join(r) + " |" for r in _rows(data)]
+    if data.failures:
+        lines += ["", "## Failed simulations", ""]
+        lines += [f"- point {p.id} sim {i} [{kind}]: {reason}" for p, i, kind, reason, _ in data.failures]
+    if data.experiment is not None and data.experiment.source:
+        lines += ["", "## Experiment", "", data.experiment.source]
+    return "\n".join(lines) + "\n"
+
+
+def _html(data: CampaignData, files: dict[str, list[str]], statement: str) -> str:
+    e = html.escape
+    cfg = data.config
+    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>calibrax: {e(cfg['name'])}</title>",
+             "<style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}"
+             "table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}"
+             "figure{margin:1.5em 0}figcaption{color:#444;font-size:90%}img{max-width:100%}"
+             ".failed{color:#b00}pre{background:#f4f4f4;padding:.5em;overflow:auto;font-size:80%}</style></head><body>",
+             f"<h1>Campaign {e(cfg['name'])}</h1>",
+             f"<p>Simulator <b>{e(cfg['simulator'])}</b>, acquisition <b>{e(cfg['acquisition']['name'])}</b> "
+             f"(q = {cfg['acquisition']['q']}); {len(data.points)} points, {len(data.done)} finished, "
+             f"<span class='failed'>{len(data.failures)} failed simulation(s)</span>. Store: <code>{e(str(data.store))}</code></p>",
+             f"<p><b>{e(_best_line(data))}</b></p>", f"<p>{e(statement)}</p>"]
+    for key, names in files.items():
+        png = [n for n in names if n.endswith(".png")]
+        if png:
+            svg = [n for n in names if n.endswith(".svg")]
+            link = f" (<a href='{e(svg[0])}'>SVG</a>)" if svg else ""
+            parts.append(f"<figure><img src='{e(png[0])}' alt='{e(key)}'><figcaption>{e(CAPTIONS[key])}{link}"
+                         "</figcaption></figure>")
+    parts.append("<h2>Points</h2><table><tr>" + "".join(f"<th>{e(h)}</th>" for h in _header(data)) + "</tr>")
+    for row in _rows(data):
+        cls = " class='failed'" if "failed" in row else ""
+        parts.append(f"<tr{cls}>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>")
+    parts.append("</table>")
+    if data.failures:
+        parts.append("<h2 class='failed'>Failed simulations</h2>")
+        for p, i, kind, reason, tail in data.failures:
+            parts.append(f"<details><summary>point {p.id} sim {i} [{e(kind)}]: {e(reason)}</summary>"
+                         f"<pre>{e(tail or '(no log)')}</pre></details>")
+    if data.experiment is not None:
+        parts.append(f"<h2>Experiment</h2><p>{e(data.experiment.name)}</p><pre>{e(data.experiment.source)}</pre>")
+    parts.append("</body></html>")
+    return "\n".join(parts)

@@ -1,0 +1,256 @@
+"""The report's figures (matplotlib, Agg): each function draws one figure and saves PNG and SVG.
+
+Axes carry units; AIF in degrees, stresses in kPa, E in GPa where it is the parameter.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+import matplotlib.ticker
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from calibrax.core.surrogate import Kriging  # noqa: E402
+from calibrax.report.data import CampaignData  # noqa: E402
+
+UNITS = {"youngs_modulus": ("E", 1e-9, "GPa"), "sliding_friction": ("μs", 1.0, ""),
+         "rolling_friction": ("μr", 1.0, ""), "restitution": ("e", 1.0, ""), "poisson_ratio": ("ν", 1.0, ""),
+         "density": ("ρ", 1.0, "kg/m³"), "cohesion_energy_density": ("k_coh", 1e-3, "kJ/m³")}
+
+
+def label(name: str) -> str:
+    """Axis label of a parameter, with its unit."""
+    sym, _, unit = UNITS.get(name, (name, 1.0, ""))
+    return f"{sym} [{unit}]" if unit else sym
+
+
+def scaled(name: str, value: float | np.ndarray) -> float | np.ndarray:
+    """A parameter in its display unit (E in GPa)."""
+    return np.asarray(value) * UNITS.get(name, (name, 1.0, ""))[1]
+
+
+def _save(fig: plt.Figure, folder: Path, stem: str) -> list[str]:
+    fig.tight_layout()
+    names = []
+    for ext in ("png", "svg"):
+        fig.savefig(folder / f"{stem}.{ext}", dpi=130)
+        names.append(f"{stem}.{ext}")
+    plt.close(fig)
+    return names
+
+
+def _feature_model(data: CampaignData, attr: str) -> Kriging | None:
+    pts = [p for p in data.points if math.isfinite(getattr(p, attr))]
+    if len(pts) < 3:
+        return None
+    return Kriging.fit(np.stack([p.record.unit for p in pts]), np.array([getattr(p, attr) for p in pts]))
+
+
+def cartography(data: CampaignData, folder: Path) -> list[str]:
+    """The paper's figure 4: points in the (AIF, C) plane with regression error bars, iso-parameter
+    lines predicted by Kriging models of C and AIF, the experiment, and the order of the search."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.8))
+    c_model, a_model = _feature_model(data, "cohesion"), _feature_model(data, "aif")
+    names = data.space.names
+    if c_model is not None and a_model is not None and data.space.dim >= 2:
+        base = data.best.record.unit.copy() if data.best is not None else np.full(data.space.dim, 0.5)
+        sweep = np.linspace(0.0, 1.0, 60)
+        for j, style in ((0, "-"), (1, "--")):
+            other = 1 - j
+            for level in np.linspace(0.0, 1.0, 5):
+                x = np.tile(base, (sweep.size, 1))
+                x[:, j], x[:, other] = level, sweep
+                c, _ = c_model.predict(x)
+                a, _ = a_model.predict(x)
+                ax.plot(a, c / 1e3, style, color="tab:blue" if j == 0 else "tab:orange", lw=0.9, alpha=0.6)
+                value = data.space.parameters[j].from_unit(level)
+                end = -1 if j == 0 else 0  # iso-E labels at the high-μ end, iso-μ labels at the low-E end
+                ax.annotate(f"{UNITS.get(names[j], (names[j],))[0]}={scaled(names[j], value):.3g}",
+                            (a[end], c[end] / 1e3), fontsize=7, color="tab:blue" if j == 0 else "tab:orange",
+                            textcoords="offset points", xytext=(3, 0 if j == 0 else -9))
+        ax.plot([], [], "-", color="tab:blue", label=f"iso-{UNITS.get(names[0], (names[0],))[0]} (Kriging)")
+        ax.plot([], [], "--", color="tab:orange", label=f"iso-{UNITS.get(names[1], (names[1],))[0]} (Kriging)")
+    ok = [p for p in data.points if math.isfinite(p.cohesion)]
+    if ok:
+        ax.errorbar([p.aif for p in ok], [p.cohesion / 1e3 for p in ok], xerr=[np.nan_to_num(p.aif_stderr) for p in ok],
+                    yerr=[np.nan_to_num(p.cohesion_stderr) / 1e3 for p in ok], fmt="o", color="k", ms=4, capsize=2,
+                    label="simulations (±1 regression s.e.)")
+        for p in ok:
+            ax.annotate(str(p.id), (p.aif, p.cohesion / 1e3), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    if data.best is not None and math.isfinite(data.best.cohesion):
+        ax.plot(data.best.aif, data.best.cohesion / 1e3, "o", mfc="none", mec="tab:green", ms=14, mew=2,
+                label=f"best: point {data.best.id}")
+    if data.experiment is not None:
+        locus = data.experiment.locus()
+        s_c, s_a = data.experiment.spread()
+        ax.errorbar([locus.aif_deg], [locus.cohesion / 1e3], xerr=[np.nan_to_num(s_a)], yerr=[np.nan_to_num(s_c) / 1e3],
+                    fmt="s", color="tab:red", ms=8, capsize=4, label=f"experiment {data.experiment.name} (±1 replicate s.d.)")
+    ax.set_xlabel("angle of internal friction AIF [°]")
+    ax.set_ylabel("cohesion C [kPa]")
+    ax.set_title("C–AIF cartography (numbers: order in which points were simulated)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return _save(fig, folder, "cartography")
+
+
+def yield_loci(data: CampaignData, folder: Path, n_best: int = 3) -> list[str]:
+    """τ_peak against σ for the experiment and the best simulations, with their fitted loci."""
+    fig, ax = plt.subplots(figsize=(7, 5))
+    sig_line = np.linspace(0.0, 10e3, 50)
+    if data.experiment is not None:
+        e = data.experiment
+        ax.plot(e.normal_stress / 1e3, e.peak_shear_stress / 1e3, "s", color="tab:red", ms=5, label=f"experiment {e.name}")
+        loc = e.locus()
+        ax.plot(sig_line / 1e3, loc.shear_stress_at(sig_line) / 1e3, "-", color="tab:red",
+                label=f"experiment fit: C = {loc.cohesion:.0f} Pa, AIF = {loc.aif_deg:.1f}°")
+    best = sorted(data.done, key=lambda p: p.distance)[:n_best]
+    for k, p in enumerate(best):
+        color = plt.cm.viridis(k / max(1, n_best))
+        sig = np.concatenate([r.target_normal_stress for r in p.results])
+        tau = np.concatenate([r.peak_shear_stress for r in p.results])
+        ax.plot(sig / 1e3, tau / 1e3, "o", color=color, ms=4)
+        ax.plot(sig_line / 1e3, (p.cohesion + math.tan(math.radians(p.aif)) * sig_line) / 1e3, "--", color=color,
+                label=f"point {p.id} (d = {p.distance:.2g}): C = {p.cohesion:.0f} Pa, AIF = {p.aif:.1f}°")
+    ax.set_xlim(0, None)
+    ax.set_xlabel("normal stress σ [kPa]")
+    ax.set_ylabel("peak shear stress τ [kPa]")
+    ax.set_title("Yield loci: experiment and best simulations")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, folder, "yield_loci")
+
+
+def shear_curves(data: CampaignData, folder: Path) -> list[str]:
+    """τ(rotation) of each shear step of the best point (first seed), with experimental curves."""
+    best = data.best
+    if best is None or not best.results:
+        return []
+    result = best.results[0]
+    shear = [s for s in result.steps if s.kind == "shear"]
+    fig, axes = plt.subplots(1, len(shear), figsize=(3.2 * len(shear), 3.6), sharey=True, squeeze=False)
+    for k, (ax, step) in enumerate(zip(axes[0], shear)):
+        ax.plot(step.rotation, step.shear_stress / 1e3, "-", color="k", lw=0.8, label="simulated τ")
+        ax.plot(step.rotation, step.normal_stress / 1e3, "-", color="0.6", lw=0.6, label="simulated σ")
+        ax.axhline(result.peak_shear_stress[k] / 1e3, color="tab:green", ls=":", label="peak")
+        if data.experiment is not None:
+            for (rep, sigma), (rot, tau) in data.experiment.curves.items():
+                if abs(sigma - step.target_stress) < 1.0:
+                    ax.plot(rot, tau / 1e3, "-", color="tab:red", lw=0.9, alpha=0.7,
+                            label="experiment" if rep == min(r for r, _ in data.experiment.curves) else None)
+        ax.set_title(f"σ = {step.target_stress / 1e3:.0f} kPa")
+        ax.set_xlabel("head rotation [rad]")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("stress [kPa]")
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle(f"Shear steps of the best point {best.id} (seed {result.provenance.seed}, {result.provenance.backend})")
+    return _save(fig, folder, "shear_curves")
+
+
+def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[list[str], str]:
+    """Predicted distance and its standard deviation over the first two parameters (the others at
+    the best point), with every evaluated point and the last batch's proposals; returns the file
+    names and an identifiability statement (the region predicted within the experimental noise,
+    d ≤ 1 for the c_aif metric, whose unit is the experiment's replicate spread)."""
+    done = data.done
+    if len(done) < 3 or data.space.dim < 1:
+        return [], "too few finished points to fit a surrogate"
+    model = Kriging.fit(np.stack([p.record.unit for p in done]), np.array([p.distance for p in done]))
+    d2 = min(2, data.space.dim)
+    base = data.best.record.unit
+    u = np.linspace(0, 1, grid)
+    if d2 == 2:
+        uu, vv = np.meshgrid(u, u)
+        x = np.tile(base, (uu.size, 1))
+        x[:, 0], x[:, 1] = uu.ravel(), vv.ravel()
+    else:
+        x = u.reshape(-1, 1)
+    mean, std = model.predict(x)
+    p0 = data.space.parameters[0]
+    nat0 = scaled(p0.name, p0.from_unit(u))
+    inside = mean <= 1.0
+    statement = _identifiability(data, x, inside, mean)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
+    last_batch = max(p.record.batch for p in data.points)
+    if d2 == 2:
+        p1 = data.space.parameters[1]
+        nat1 = scaled(p1.name, p1.from_unit(u))
+        for ax, z, title in ((axes[0], mean, "predicted distance"), (axes[1], std, "prediction s.d.")):
+            cs = ax.contourf(nat0, nat1, z.reshape(grid, grid), levels=20, cmap="viridis")
+            fig.colorbar(cs, ax=ax)
+            if np.any(inside):
+                ax.contour(nat0, nat1, mean.reshape(grid, grid), levels=[1.0], colors="w", linewidths=1.5)
+            for p in data.points:
+                xy = (scaled(p0.name, p.record.natural[0]), scaled(p1.name, p.record.natural[1]))
+                if not math.isfinite(p.distance):
+                    ax.plot(*xy, "x", color="r", ms=8)
+                elif p.record.batch == last_batch and last_batch > 0:
+                    ax.plot(*xy, "*", color="w", mec="k", ms=13)
+                else:
+                    ax.plot(*xy, "o", color="w", mec="k", ms=5)
+            if p0.log:
+                ax.set_xscale("log")
+                ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+                ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            if p1.log:
+                ax.set_yscale("log")
+                ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+                ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            ax.set_xlabel(label(p0.name))
+            ax.set_ylabel(label(p1.name))
+            ax.set_title(f"{title} (white line: d = 1; ★ last batch; ✕ failed)", fontsize=9)
+    else:
+        axes[0].plot(nat0, mean, "k-")
+        axes[0].fill_between(nat0, mean - 2 * std, mean + 2 * std, alpha=0.3)
+        axes[0].plot([scaled(p0.name, p.record.natural[0]) for p in done], [p.distance for p in done], "o")
+        axes[1].plot(nat0, std)
+        for ax in axes:
+            ax.set_xlabel(label(p0.name))
+    fig.suptitle("Kriging surrogate of the distance to the experiment")
+    return _save(fig, folder, "surrogate"), statement
+
+
+def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean: np.ndarray) -> str:
+    if not np.any(inside):
+        return (f"No parameter set is predicted within the experimental noise (d ≤ 1); the lowest predicted "
+                f"distance on the map is {mean.min():.2g}. The model cannot reach the experiment in this box, "
+                "or more simulations are needed.")
+    nat = data.space.from_unit(x[inside])
+    parts = []
+    for j, p in enumerate(data.space.parameters[: x.shape[1]]):
+        lo, hi = scaled(p.name, nat[:, j].min()), scaled(p.name, nat[:, j].max())
+        parts.append(f"{label(p.name)} from {lo:.3g} to {hi:.3g}")
+    share = 100.0 * inside.mean()
+    return ("Parameters predicted within the experimental noise (d ≤ 1): " + "; ".join(parts) +
+            f" ({share:.0f} % of the searched box). A long, thin region is a valley of near-equivalent couples: "
+            "the shear test alone cannot tell them apart.")
+
+
+def convergence(data: CampaignData, folder: Path) -> list[str]:
+    """Best distance against the number of simulations, and wall time per simulation."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    order = sorted(data.points, key=lambda p: p.id)
+    dist = np.array([p.distance for p in order])
+    best = np.fmin.accumulate(np.where(np.isfinite(dist), dist, np.inf))
+    n = np.arange(1, len(order) + 1)
+    ax1.plot(n, np.where(np.isfinite(best), best, np.nan), "-", color="k", label="best so far")
+    ax1.plot(n[np.isfinite(dist)], dist[np.isfinite(dist)], "o", color="tab:blue", ms=4, label="each point")
+    failed = ~np.isfinite(dist)
+    if failed.any():
+        top = np.nanmax(dist) if np.isfinite(dist).any() else 1.0
+        ax1.plot(n[failed], np.full(failed.sum(), top), "x", color="r", ms=8, label="failed")
+    ax1.set_yscale("log")
+    ax1.set_xlabel("points simulated")
+    ax1.set_ylabel("distance to experiment")
+    ax1.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8)
+    colors = ["tab:red" if p.record.status == "failed" else "tab:blue" for p in order]
+    ax2.bar([p.id for p in order], [p.wall_time for p in order], color=colors)
+    ax2.set_xlabel("point")
+    ax2.set_ylabel("wall time, all seeds [s]")
+    ax2.set_title("red: failed", fontsize=9)
+    return _save(fig, folder, "convergence")

@@ -1,0 +1,62 @@
+"""`calibrax report` builds every figure and an HTML page that references them, also for a store
+with failed simulations; `calibrax run --json` streams machine-readable progress."""
+
+from __future__ import annotations
+
+import json
+import re
+
+from tests.conftest import calibrax_cli, double_env, write_double_campaign
+
+FIGURES = ("cartography", "yield_loci", "shear_curves", "surrogate", "convergence")
+
+
+def check_report(folder):
+    page = (folder / "index.html").read_text()
+    referenced = set(re.findall(r"(?:src|href)='([^']+)'", page))
+    for stem in FIGURES:
+        for ext in ("png", "svg"):
+            assert (folder / f"{stem}.{ext}").stat().st_size > 1000, f"{stem}.{ext} missing or empty"
+            assert f"{stem}.{ext}" in referenced, f"index.html does not reference {stem}.{ext}"
+    assert all((folder / name).exists() for name in referenced)
+    summary = (folder / "summary.md").read_text()
+    assert "Best point" in summary
+    return page, summary
+
+
+def test_report_of_a_campaign_with_json_progress(tmp_path):
+    path = write_double_campaign(tmp_path, budget={"initial": 4, "iterations": 2})
+    proc = calibrax_cli("run", str(path), "--json")
+    assert proc.returncode == 0, proc.stderr
+    events = [json.loads(line) for line in proc.stdout.splitlines()]
+    kinds = [e["event"] for e in events]
+    assert kinds[0] == "campaign" and kinds[-1] == "summary"
+    assert kinds.count("started") == kinds.count("done") == 8 and kinds.count("model") == 2
+    done = [e for e in events if e["event"] == "done"]
+    assert all(e["seed"] >= 0 and len(e["peaks_pa"]) == 4 for e in done)
+    assert events[-1]["points"] == 8 and events[-1]["best_id"] is not None
+    out = tmp_path / "report"
+    rep = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "-o", str(out))
+    assert rep.returncode == 0, rep.stderr
+    page, summary = check_report(out)
+    assert "within the experimental noise" in summary
+    assert "failed simulation" not in page or "0 failed" in page
+
+
+def test_report_of_a_store_with_failed_simulations(tmp_path):
+    path = write_double_campaign(tmp_path, budget={"initial": 6, "iterations": 1})
+    proc = calibrax_cli("run", str(path), env=double_env(CALIBRAX_DOUBLE_FAIL_ABOVE_MU="0.6"))
+    assert proc.returncode == 0, proc.stderr
+    assert "FAILED" in proc.stderr and "double told to fail" in proc.stderr
+    status = calibrax_cli("status", str(tmp_path / "runs/double.h5"))
+    assert "failed [unstable]" in status.stdout
+    rep = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "-o", str(tmp_path / "r"))
+    assert rep.returncode == 0, rep.stderr
+    page, summary = check_report(tmp_path / "r")
+    assert "Failed simulations" in page and "double told to fail" in page and "double log tail" in page
+    assert "## Failed simulations" in summary
+
+
+def test_report_of_a_missing_store_is_a_clear_error(tmp_path):
+    proc = calibrax_cli("report", str(tmp_path / "nope.h5"))
+    assert proc.returncode == 2 and "not found" in proc.stderr and "Traceback" not in proc.stderr
