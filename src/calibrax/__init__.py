@@ -1,42 +1,53 @@
 """calibrax: calibrate DEM powder-model parameters against a measured FT4 shear test with
 Efficient Global Optimisation (Kriging + q-point Expected Improvement).
 
-The public API, re-exported from its modules.
+The public API, re-exported from its modules. Names are imported on first use, so that a
+simulation process (which needs the spec and a backend) never pays for torch and BoTorch.
 """
 
+from __future__ import annotations
+
+import importlib
 from importlib.metadata import PackageNotFoundError, version as _version
+from typing import Any
 
 try:
     __version__ = _version("calibrax")
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0+unknown"
 
-from calibrax.core.acquisition import Acquisition, Observations
-from calibrax.core.campaign import Campaign, CampaignSummary, run_campaign
-from calibrax.core.config import CampaignConfig, load_config, parse_config
-from calibrax.core.executor import Executor, LocalExecutor, SimulationTask
-from calibrax.core.experiment import Experiment, load_experiment
-from calibrax.core.metric import Metric, MetricValue
-from calibrax.core.parameters import Parameter, ParameterSpace
-from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
-                                     Provenance, ShearCellSpec, ShearTestResult, SizeDistribution, StepRecord,
-                                     critical_time_step, find_peak, inertial_number, shear_stress_from_torque)
-from calibrax.core.simulator import Simulator
-from calibrax.core.store import CampaignStore
-from calibrax.core.surrogate import Kriging
-from calibrax.core.yieldlocus import MohrAnalysis, YieldLocus
-from calibrax.errors import (CalibraxError, ConfigError, EngineNotFound, ExperimentError, PluginError,
-                             SimulationFailed, SpecError, StoreError, StoreLockedError)
-from calibrax.plugins.hookspecs import hookimpl
-from calibrax.plugins.manager import get_manager
+_EXPORTS = {
+    "calibrax.core.acquisition": ["Acquisition", "Observations"],
+    "calibrax.core.campaign": ["Campaign", "CampaignSummary", "run_campaign"],
+    "calibrax.core.config": ["CampaignConfig", "load_config", "parse_config"],
+    "calibrax.core.executor": ["Executor", "LocalExecutor", "SimulationTask"],
+    "calibrax.core.experiment": ["Experiment", "load_experiment"],
+    "calibrax.core.metric": ["Metric", "MetricValue"],
+    "calibrax.core.parameters": ["Parameter", "ParameterSpace"],
+    "calibrax.core.sheartest": ["FIDELITY_PRESETS", "PROCEDURES", "Geometry", "Material", "Numerics", "Procedure",
+                                "Provenance", "ShearCellSpec", "ShearTestResult", "SizeDistribution", "StepRecord",
+                                "critical_time_step", "find_peak", "inertial_number", "shear_stress_from_torque"],
+    "calibrax.core.simulator": ["Simulator"],
+    "calibrax.core.store": ["CampaignStore"],
+    "calibrax.core.surrogate": ["Kriging"],
+    "calibrax.core.yieldlocus": ["MohrAnalysis", "YieldLocus"],
+    "calibrax.errors": ["CalibraxError", "ConfigError", "EngineNotFound", "ExperimentError", "PluginError",
+                        "SimulationFailed", "SpecError", "StoreError", "StoreLockedError"],
+    "calibrax.plugins.hookspecs": ["hookimpl"],
+    "calibrax.plugins.manager": ["get_manager"],
+    "calibrax.report": ["build_report"],
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+__all__ = ["__version__", *_WHERE]
 
-__all__ = [
-    "__version__", "Acquisition", "Observations", "Campaign", "CampaignSummary", "run_campaign", "CampaignConfig",
-    "load_config", "parse_config", "Executor", "LocalExecutor", "SimulationTask", "Experiment", "load_experiment",
-    "Metric", "MetricValue", "Parameter", "ParameterSpace", "FIDELITY_PRESETS", "PROCEDURES", "Geometry",
-    "Material", "Numerics", "Procedure", "Provenance", "ShearCellSpec", "ShearTestResult", "SizeDistribution",
-    "StepRecord", "critical_time_step", "find_peak", "inertial_number", "shear_stress_from_torque", "Simulator",
-    "CampaignStore", "Kriging", "MohrAnalysis", "YieldLocus", "CalibraxError", "ConfigError", "EngineNotFound",
-    "ExperimentError", "PluginError", "SimulationFailed", "SpecError", "StoreError", "StoreLockedError",
-    "hookimpl", "get_manager",
-]
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'calibrax' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_WHERE[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

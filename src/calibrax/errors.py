@@ -28,6 +28,9 @@ class ConfigError(CalibraxError, ValueError):
         self.message = message
         super().__init__(f"{key}: {message}" if key else message)
 
+    def __reduce__(self):  # survive pickling across processes (Dask workers, simulation processes)
+        return (type(self), (self.key, self.message))
+
 
 class SpecError(ConfigError):
     """A :class:`~calibrax.core.sheartest.ShearCellSpec` is physically invalid."""
@@ -53,8 +56,21 @@ class SimulationFailed(CalibraxError):
     def __init__(self, reason: str, log_tail: str = "", *, kind: str = "crash") -> None:
         self.reason = reason
         self.log_tail = log_tail
-        self.kind = kind  # "crash" | "nan" | "timeout" | "unstable" | "invalid"
+        self.kind = kind  # "crash" | "nan" | "timeout" | "unstable" | "invalid" | "worker_lost" | "cancelled"
         super().__init__(reason)
+
+    def __reduce__(self):
+        return (_rebuild_simulation_failed, (type(self), self.reason, self.log_tail, self.kind))
+
+    @property
+    def is_physical(self) -> bool:
+        """True when the failure says something about the parameters (the search should avoid them),
+        False when it was the infrastructure (a lost worker, a cancellation)."""
+        return self.kind not in ("worker_lost", "cancelled")
+
+
+def _rebuild_simulation_failed(cls: type, reason: str, log_tail: str, kind: str) -> "SimulationFailed":
+    return cls(reason, log_tail, kind=kind)
 
 
 class StoreError(CalibraxError):

@@ -1,10 +1,23 @@
 """The calibration loop: propose → simulate in parallel → measure → record → refit.
 
-Batch 0 is a scrambled Sobol design of ``budget.initial`` points; each later batch fits the
-Kriging model on every finished point and asks the acquisition for ``q`` points (q = 2: the
-paper's 2-point EI). Every proposal is written to the store *before* it runs and every result as
-soon as it finishes, so ``run()`` on an existing store resumes: it re-runs only the simulations
-that were in flight and goes on with the next batch.
+Batch 0 is a scrambled Sobol design of ``budget.initial`` points. Then, until
+``initial + iterations × q`` points have been proposed:
+
+* ``batching: sync`` (the paper's way): when every simulation of a batch has finished, fit the
+  Kriging model on every finished point and ask the acquisition for ``q`` points at once;
+* ``batching: async``: whenever a worker frees up, ask for one point with the points still
+  running passed to BoTorch as pending (``X_pending``), so that no worker idles waiting for its
+  partner.
+
+Every proposal is written to the store *before* it runs and every result as soon as it finishes,
+so ``run()`` on an existing store resumes: it re-runs only the simulations that were in flight.
+
+Failures are data: a simulation that crashed, returned NaN, blew up or timed out is stored with
+its reason and log tail. For the search, a point that failed for a physical reason enters the
+Kriging model with a *penalty* distance (the worst finished distance plus 10 % of the observed
+range), which steers the acquisition away from its neighbourhood, and no point is ever proposed
+again within 1e-3 (unit-cube units) of an existing one: such a proposal is replaced by a
+space-filling point.
 """
 
 from __future__ import annotations
@@ -22,16 +35,15 @@ import numpy as np
 from calibrax.core.acquisition import Observations
 from calibrax.core.config import CampaignConfig
 from calibrax.core.executor import SimulationTask
-from calibrax.core.metric import MetricValue
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.store import CampaignStore, PointRecord
-from calibrax.core.surrogate import Kriging
 from calibrax.errors import CalibraxError, SimulationFailed
 from calibrax.plugins.builtin.acquisitions import sobol_points
 from calibrax.plugins.manager import get_manager
 
 log = logging.getLogger("calibrax")
 HEARTBEAT_S = 30.0
+DUPLICATE_TOL = 1e-3  # unit-cube distance (max norm) under which a proposal repeats a point
 
 
 @dataclass(frozen=True)
@@ -48,6 +60,14 @@ class CampaignSummary:
     best_uncertainty: float
 
 
+@dataclass
+class _InFlight:
+    point: PointRecord
+    index: int
+    seed: int
+    started: float
+
+
 def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
     """The seed of simulation ``index`` of point ``point_id``: distinct, reproducible, < 2³¹."""
     return (campaign_seed * 1_000_003 + point_id * 1_000 + index) % (2**31 - 1)
@@ -58,13 +78,30 @@ def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> Shea
     return base.replace(material=dict(params), numerics={"seed": int(seed)})
 
 
-def observations(points: list[PointRecord]) -> Observations:
-    """Unit-cube points and distances of every point with a metric."""
+def physically_failed(point: PointRecord) -> bool:
+    """Every simulation of the point finished, none gave a metric, and at least one failure was
+    about the parameters (not a lost worker or a cancellation)."""
+    return point.status == "failed" and any(s.status == "failed" and s.kind not in ("worker_lost", "cancelled")
+                                            for s in point.sims)
+
+
+def observations(points: list[PointRecord], penalise_failures: bool = True) -> Observations:
+    """Unit-cube points and distances of every point with a metric, plus (with a penalty distance)
+    every point that failed physically."""
+    d = len(points[0].names) if points else 0
     done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-    if not done:
-        return Observations(np.zeros((0, len(points[0].names) if points else 0)), np.zeros(0), np.zeros(0))
-    return Observations(np.stack([p.unit for p in done]), np.array([p.metric.value for p in done]),
-                        np.array([p.metric.uncertainty for p in done]))
+    x = [p.unit for p in done]
+    y = [p.metric.value for p in done]
+    y_std = [p.metric.uncertainty for p in done]
+    failed = [p for p in points if physically_failed(p)] if penalise_failures else []
+    if failed and y:
+        penalty = max(y) + 0.1 * (max(y) - min(y) or abs(max(y)) or 1.0)
+        x += [p.unit for p in failed]
+        y += [penalty] * len(failed)
+        y_std += [float("nan")] * len(failed)
+    if not x:
+        return Observations(np.zeros((0, d)), np.zeros(0), np.zeros(0))
+    return Observations(np.stack(x), np.asarray(y, float), np.asarray(y_std, float))
 
 
 def _fmt_params(params: dict[str, float]) -> str:
@@ -83,6 +120,8 @@ class Campaign:
         self.acquisition = manager.create("acquisition", config.acquisition, **config.acquisition_options)
         self.engine = manager.create("simulator", config.simulator)
         self._best: tuple[float, int, dict[str, float]] | None = None
+        self._inflight: dict[cf.Future, _InFlight] = {}
+        self._outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
 
     # ------------------------------------------------------------------------------------------
     def run(self) -> CampaignSummary:
@@ -92,30 +131,55 @@ class Campaign:
         with CampaignStore(cfg.store).acquire() as store:
             created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
             self._emit("campaign", f"{'new' if created else 'resuming'} campaign {cfg.name!r} on {cfg.simulator} "
-                       f"({self.engine.version()}); store {cfg.store}", resumed=not created,
-                       simulator=cfg.simulator, engine=self.engine.version(), store=str(cfg.store))
+                       f"({self.engine.version()}), {cfg.batching} batches of q = {cfg.q}; store {cfg.store}",
+                       resumed=not created, simulator=cfg.simulator, engine=self.engine.version(),
+                       store=str(cfg.store))
             previous = self.summary(store)
             if previous.best_id is not None:
                 self._best = (previous.best_value, previous.best_id, previous.best_params)
             executor = get_manager().create("executor", cfg.executor, **cfg.executor_options)
             try:
                 if not store.points():
-                    unit = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
-                    self._add_batch(store, 0, unit, "sobol(initial)", None)
-                self._run_pending(store, executor)
-                while True:
-                    points = store.points()
-                    batch = max(p.batch for p in points) + 1
-                    if batch > cfg.iterations:
-                        break
-                    unit, name, model = self._propose(points, batch)
-                    self._add_batch(store, batch, unit, name, model)
-                    self._run_pending(store, executor)
+                    self._add_batch(store, executor, 0, sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed),
+                                    "sobol(initial)", None)
+                else:
+                    for p in store.points():
+                        self._submit(executor, p)
+                self._loop(store, executor)
             except BaseException:
                 executor.shutdown(cancel=True)
                 raise
             executor.shutdown()
             return self.summary(store)
+
+    def _loop(self, store: CampaignStore, executor) -> None:
+        cfg = self.config
+        target = cfg.initial + cfg.iterations * cfg.q
+        last_beat = time.monotonic()
+        while True:
+            points = store.points()
+            running = {job.point.id for job in self._inflight.values()}
+            if len(points) < target:
+                batch = max(p.batch for p in points) + 1
+                if cfg.batching == "sync" and not running:
+                    self._propose_and_submit(store, executor, points, batch, min(cfg.q, target - len(points)))
+                    continue
+                free = executor.capacity - len(running)
+                finished = sum(1 for p in points if p.metric is not None)
+                if cfg.batching == "async" and free > 0 and (finished >= 2 or not running):
+                    self._propose_and_submit(store, executor, points, batch, min(free, target - len(points)),
+                                             pending=[p for p in points if p.id in running])
+                    continue
+            if not self._inflight:
+                return
+            done, _ = cf.wait(set(self._inflight), timeout=5.0, return_when=cf.FIRST_COMPLETED)
+            for fut in done:
+                self._record(store, self._inflight.pop(fut), fut)
+            if time.monotonic() - last_beat >= HEARTBEAT_S and self._inflight:
+                last_beat = time.monotonic()
+                elapsed = {job.point.id: round(time.monotonic() - job.started, 1) for job in self._inflight.values()}
+                text = ", ".join(f"point {k} ({v:.0f} s)" for k, v in sorted(elapsed.items()))
+                self._emit("running", f"running: {text} | {self._best_text()}", elapsed_s=elapsed)
 
     @staticmethod
     def summary(store: CampaignStore) -> CampaignSummary:
@@ -130,78 +194,104 @@ class Campaign:
                                best.metric.value, best.metric.uncertainty)
 
     # ------------------------------------------------------------------------------------------
-    def _propose(self, points: list[PointRecord], batch: int) -> tuple[np.ndarray, str, dict | None]:
+    def _propose_and_submit(self, store: CampaignStore, executor, points: list[PointRecord], batch: int, q: int,
+                            pending: list[PointRecord] | None = None) -> None:
+        unit, source, model = self._propose(points, batch, q, pending or [])
+        unit = self._without_repeats(unit, points, batch)
+        self._add_batch(store, executor, batch, unit, source, model)
+
+    def _propose(self, points: list[PointRecord], batch: int, q: int,
+                 pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None]:
         cfg = self.config
         obs = observations(points)
         seed = cfg.seed * 7919 + batch
+        x_pending = np.stack([p.unit for p in pending]) if pending else None
         if not self.acquisition.needs_model:
-            return self.acquisition.propose(None, cfg.space, obs, cfg.q, seed=seed), cfg.acquisition, None
-        if len(obs.y) < 2:
-            self._emit("fallback", f"batch {batch}: only {len(obs.y)} finished point(s), too few for a model; "
+            unit = self.acquisition.propose(None, cfg.space, obs, q, pending=x_pending, seed=seed)
+            return unit, cfg.acquisition, None
+        finished = sum(1 for p in points if p.metric is not None)
+        if finished < 2:
+            self._emit("fallback", f"batch {batch}: only {finished} finished point(s), too few for a model; "
                        "proposing space-filling points", level=logging.WARNING, batch=batch)
-            return sobol_points(cfg.space.dim, cfg.q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
+            return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
+        from calibrax.core.surrogate import Kriging
+
         t0 = time.monotonic()
         model = Kriging.fit(obs.x, obs.y, seed=seed)
-        unit = self.acquisition.propose(model, cfg.space, obs, cfg.q, seed=seed)
+        unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
         hyper = model.hyperparameters()
-        self._emit("model", f"batch {batch}: Kriging on {len(obs.y)} points (length scales "
+        n_pen = len(obs.y) - finished
+        hyper.update({"penalised_failures": n_pen, "pending": 0 if x_pending is None else len(x_pending)})
+        self._emit("model", f"batch {batch}: Kriging on {len(obs.y)} points ({n_pen} failed, penalised; length scales "
                    f"{', '.join(f'{v:.3g}' for v in hyper['lengthscales'])}, noise {hyper['noise'] or 0.0:.3g}) → "
-                   f"{cfg.acquisition} proposes {cfg.q} point(s) in {time.monotonic() - t0:.1f} s",
-                   batch=batch, hyperparameters=hyper)
+                   f"{cfg.acquisition} proposes {q} point(s)"
+                   f"{f' beside {len(x_pending)} pending' if x_pending is not None else ''} "
+                   f"in {time.monotonic() - t0:.1f} s", batch=batch, hyperparameters=hyper)
         return unit, cfg.acquisition, hyper
 
-    def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str, model: dict | None) -> None:
+    def _without_repeats(self, unit: np.ndarray, points: list[PointRecord], batch: int) -> np.ndarray:
+        """Replace any proposal within DUPLICATE_TOL of an existing point (or of another proposal)."""
+        taken = [p.unit for p in points]
+        out = []
+        spare = iter(sobol_points(self.config.space.dim, 256, seed=self.config.seed + 1, skip=len(points) + batch))
+        for row in np.atleast_2d(unit):
+            if taken and np.min(np.max(np.abs(np.stack(taken) - row), axis=1)) < DUPLICATE_TOL:
+                self._emit("repeat", f"batch {batch}: proposal repeats an existing point; replaced by a "
+                           "space-filling point", level=logging.WARNING, batch=batch)
+                for candidate in spare:
+                    if np.min(np.max(np.abs(np.stack(taken) - candidate), axis=1)) >= 0.05:
+                        row = candidate
+                        break
+            taken.append(row)
+            out.append(row)
+        return np.stack(out)
+
+    def _add_batch(self, store: CampaignStore, executor, batch: int, unit: np.ndarray, source: str,
+                   model: dict | None) -> None:
         cfg = self.config
         natural = cfg.space.from_unit(unit)
         first = len(store.points())
         seeds = [[simulation_seed(cfg.seed, first + j, i) for i in range(cfg.seeds_per_point)] for j in range(len(unit))]
         ids = store.add_batch(batch, unit, natural, list(cfg.space.names), seeds, source, model)
+        points = {p.id: p for p in store.points()}
         for pid, row in zip(ids, natural):
             self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}: "
                        f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=source,
                        params=cfg.space.as_dict(row))
+            self._submit(executor, points[pid])
 
-    def _run_pending(self, store: CampaignStore, executor) -> None:
+    def _submit(self, executor, p: PointRecord) -> None:
+        """Submit the point's simulations that have no outcome yet."""
         cfg = self.config
-        points = {p.id: p for p in store.points()}
-        outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
-        futures: dict[cf.Future, tuple[PointRecord, int, int, float]] = {}
-        for p in points.values():
-            pending = [s for s in p.sims if s.status == "pending"]
-            if not pending:
-                continue
-            outcomes[p.id] = {s.index: store.result(p.id, s.index) if s.status == "done" else None
-                              for s in p.sims if s.status != "pending"}
-            for s in pending:
-                spec = point_spec(cfg.spec, p.params(), s.seed)
-                workdir = cfg.workdir / f"p{p.id:06d}-s{s.index}"
-                task = SimulationTask(p.id, cfg.simulator, spec, workdir)
-                self._emit("started", f"point {p.id} sim {s.index}: {cfg.simulator} starts (seed {s.seed}, "
-                           f"{_fmt_params(p.params())})", point=p.id, sim=s.index, seed=s.seed,
-                           simulator=cfg.simulator, params=p.params())
-                futures[executor.submit(task)] = (p, s.index, s.seed, time.monotonic())
-        last_beat = time.monotonic()
-        waiting = set(futures)
-        while waiting:
-            finished, waiting = cf.wait(waiting, timeout=5.0, return_when=cf.FIRST_COMPLETED)
-            for fut in finished:
-                point, index, seed, t0 = futures[fut]
-                self._record(store, point, index, seed, fut, time.monotonic() - t0, outcomes[point.id])
-            if time.monotonic() - last_beat >= HEARTBEAT_S and waiting:
-                last_beat = time.monotonic()
-                running = {futures[f][0].id: round(time.monotonic() - futures[f][3], 1)
-                           for f in sorted(waiting, key=lambda f: futures[f][0].id)}
-                text = ", ".join(f"point {k} ({v:.0f} s)" for k, v in running.items())
-                self._emit("running", f"running: {text} | {self._best_text()}", elapsed_s=running)
+        pending = [s for s in p.sims if s.status == "pending"]
+        if not pending:
+            return
+        self._outcomes[p.id] = {}
+        for s in p.sims:
+            if s.status == "done":
+                self._outcomes[p.id][s.index] = CampaignStore(cfg.store).result(p.id, s.index)
+            elif s.status == "failed":
+                self._outcomes[p.id][s.index] = None
+        for s in pending:
+            task = SimulationTask(p.id, cfg.simulator, point_spec(cfg.spec, p.params(), s.seed),
+                                  cfg.workdir / f"p{p.id:06d}-s{s.index}")
+            self._emit("started", f"point {p.id} sim {s.index}: {cfg.simulator} starts (seed {s.seed}, "
+                       f"{_fmt_params(p.params())})", point=p.id, sim=s.index, seed=s.seed,
+                       simulator=cfg.simulator, params=p.params())
+            self._inflight[executor.submit(task)] = _InFlight(p, s.index, s.seed, time.monotonic())
 
-    def _record(self, store: CampaignStore, point: PointRecord, index: int, seed: int, fut: cf.Future,
-                wall: float, outcomes: dict[int, ShearTestResult | None]) -> None:
+    def _record(self, store: CampaignStore, job: _InFlight, fut: cf.Future) -> None:
         """Store one finished simulation; when it is the point's last, the point's metric too."""
         cfg = self.config
+        point, index, seed = job.point, job.index, job.seed
+        wall = time.monotonic() - job.started
         try:
             result, failure = fut.result(), None
         except SimulationFailed as exc:
             result, failure = None, exc
+        except Exception as exc:  # noqa: BLE001 — an executor fault is this simulation's failure
+            result, failure = None, SimulationFailed(f"executor error {type(exc).__name__}: {exc}", kind="crash")
+        outcomes = self._outcomes[point.id]
         outcomes[index] = result
         metric, error = None, ""
         good = [outcomes[i] for i in sorted(outcomes) if outcomes[i] is not None]

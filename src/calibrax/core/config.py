@@ -60,6 +60,7 @@ class CampaignConfig:
     metric_options: dict[str, Any]
     acquisition: str
     q: int
+    batching: str
     acquisition_options: dict[str, Any]
     initial: int
     iterations: int
@@ -169,6 +170,9 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
             options[opt] = _integer(f"{key}.{opt}", value, 0)
         elif typ is str:
             options[opt] = _text(f"{key}.{opt}", value)
+        elif typ is list:
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise ConfigError(f"{key}.{opt}", f"must be a list of text lines, got {value!r}")
     return name, options
 
 
@@ -254,10 +258,16 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     space = ParameterSpace.from_config(raw["parameters"])
     metric, metric_options = _named("metric", raw.get("metric"), "metric", default="c_aif")
     acq_raw = raw.get("acquisition")
-    q = 2
-    if isinstance(acq_raw, dict) and "q" in acq_raw:
-        q = _integer("acquisition.q", acq_raw["q"], 1)
-        acq_raw = {k: v for k, v in acq_raw.items() if k != "q"}
+    q, batching = 2, "sync"
+    if isinstance(acq_raw, dict):
+        if "q" in acq_raw:
+            q = _integer("acquisition.q", acq_raw["q"], 1)
+        if "batching" in acq_raw:
+            batching = acq_raw["batching"]
+            if batching not in ("sync", "async"):
+                raise ConfigError("acquisition.batching", f"must be 'sync' (the paper's: a whole batch, then the "
+                                  f"next) or 'async' (a new point as soon as a worker frees up), got {batching!r}")
+        acq_raw = {k: v for k, v in acq_raw.items() if k not in ("q", "batching")}
     acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="qei")
     budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations"})
     initial = _integer("budget.initial", budget.get("initial", 4), 2)
@@ -294,11 +304,12 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     resolved = {
         "name": name, "simulator": simulator, "experiment": str(exp_path), "cell": spec.to_dict(),
         "parameters": {p.name: {"low": p.low, "high": p.high, "log": p.log} for p in space.parameters},
-        "metric": {"name": metric, **metric_options}, "acquisition": {"name": acquisition, "q": q, **acq_options},
+        "metric": {"name": metric, **metric_options},
+        "acquisition": {"name": acquisition, "q": q, "batching": batching, **acq_options},
         "budget": {"initial": initial, "iterations": iterations},
         "executor": {"name": executor, **exec_options}, "store": str(store), "workdir": str(workdir),
         "seed": seed, "seeds_per_point": seeds_per_point,
     }
     return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
-                          acquisition, q, acq_options, initial, iterations, executor, exec_options, store,
+                          acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
                           workdir, seed, seeds_per_point, resolved)

@@ -1,13 +1,19 @@
-"""Executors: where simulations run. The builtin ``local`` one runs each simulation in its own
-process (so a crash, a hang or a segfault stays there), at most ``workers`` at a time, and kills
-one that runs past its timeout. ``dask`` (issue 10) plugs in through the same interface.
+"""Executors: where simulations run.
+
+Every simulation runs in a process of its own (:func:`run_isolated`): a crash, a hang or a
+segfault of an engine stays there, a timeout kills it, and the process quits by itself if the
+process that started it dies. The builtin ``local`` executor runs ``workers`` of them at once on
+this machine; ``dask`` (:mod:`calibrax.core.dask_executor`) runs them on Dask workers.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
-import multiprocessing as mp
 import os
+import pickle
+import signal
+import subprocess
+import sys
 import threading
 import time
 import traceback
@@ -29,12 +35,22 @@ class SimulationTask:
     workdir: Path
     timeout_s: float | None = None
 
+    @property
+    def threads(self) -> int:
+        """Cores the simulation uses (numba threads, MPI ranks, YADE threads)."""
+        return self.spec.numerics.threads
+
 
 @runtime_checkable
 class Executor(Protocol):
     """Runs :class:`SimulationTask` s; each future gives a ShearTestResult or raises SimulationFailed."""
 
     name: str
+
+    @property
+    def capacity(self) -> int:
+        """How many simulations run at once."""
+        ...
 
     def submit(self, task: SimulationTask) -> cf.Future:
         ...
@@ -51,8 +67,6 @@ def run_task(task: SimulationTask) -> ShearTestResult:
     Path(task.workdir).mkdir(parents=True, exist_ok=True)
     try:
         result = simulator.simulate(task.spec, Path(task.workdir))
-    except SimulationFailed:
-        raise
     except CalibraxError:
         raise
     except Exception as exc:  # noqa: BLE001 — a backend bug is a failed simulation, not a dead campaign
@@ -64,28 +78,67 @@ def run_task(task: SimulationTask) -> ShearTestResult:
     return result
 
 
-def _watch_parent(parent_pid: int) -> None:
-    """End this child if the campaign process dies (kill -9 leaves no one to read the result)."""
-    while True:
-        if os.getppid() != parent_pid:
-            os._exit(3)
-        time.sleep(0.5)
+class _Running:
+    """The process of one isolated simulation, so that it can be killed from another thread."""
+
+    def __init__(self) -> None:
+        self.proc: subprocess.Popen | None = None
+        self.cancelled = False
+
+    def kill(self) -> None:
+        self.cancelled = True
+        if self.proc is not None and self.proc.poll() is None:
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
 
 
-def _child_main(task: SimulationTask, conn, parent_pid: int) -> None:
-    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True).start()
+def run_isolated(task: SimulationTask, timeout_s: float | None = None, handle: _Running | None = None) -> ShearTestResult:
+    """Run ``task`` in a fresh Python process (its own session, so a Ctrl-C meant for the campaign
+    does not reach it); kill it after ``timeout_s``. The task and its outcome travel as pickle
+    files in the task's work folder, which also keeps the engine's own files."""
+    workdir = Path(task.workdir)
+    workdir.mkdir(parents=True, exist_ok=True)
+    request, outcome = workdir / "task.pkl", workdir / "outcome.pkl"
+    outcome.unlink(missing_ok=True)
+    request.write_bytes(pickle.dumps(task))
+    handle = handle or _Running()
+    log = open(workdir / "calibrax-worker.log", "wb")
     try:
-        conn.send(("ok", run_task(task)))
-    except SimulationFailed as exc:
-        conn.send(("failed", exc.reason, exc.log_tail, exc.kind))
-    except BaseException as exc:  # noqa: BLE001 — report anything to the parent as a failure
-        conn.send(("failed", f"{type(exc).__name__}: {exc}", traceback.format_exc()[-4000:], "crash"))
+        handle.proc = subprocess.Popen([sys.executable, "-m", "calibrax.core.isolate", str(request), str(outcome),
+                                        str(os.getpid())], stdout=log, stderr=subprocess.STDOUT,
+                                       start_new_session=True)
+        if handle.cancelled:
+            handle.kill()
+        try:
+            code = handle.proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            handle.kill()
+            handle.proc.wait()
+            raise SimulationFailed(f"timed out after {timeout_s:g} s", _tail(workdir), kind="timeout") from None
     finally:
-        conn.close()
+        log.close()
+    if handle.cancelled:
+        raise SimulationFailed("cancelled", kind="cancelled")
+    if not outcome.exists():
+        how = f"signal {-code}" if code < 0 else f"exit code {code}"
+        raise SimulationFailed(f"simulation process died ({how})", _tail(workdir), kind="crash")
+    message = pickle.loads(outcome.read_bytes())
+    if message[0] == "ok":
+        return message[1]
+    raise SimulationFailed(message[1], message[2] or _tail(workdir), kind=message[3])
+
+
+def _tail(workdir: Path, lines: int = 40) -> str:
+    path = Path(workdir) / "calibrax-worker.log"
+    if not path.exists():
+        return ""
+    return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
 
 
 class LocalExecutor:
-    """Process per simulation, ``workers`` at once, each killed after ``timeout_s`` seconds."""
+    """Isolated simulations on this machine, ``workers`` at once, each killed after ``timeout_s``."""
 
     name = "local"
     OPTIONS = {"workers": int, "timeout_s": float}
@@ -94,62 +147,34 @@ class LocalExecutor:
         self.workers = workers
         self.timeout_s = timeout_s
         self._threads = cf.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="calibrax-sim")
-        self._ctx = mp.get_context("spawn")
-        self._live: set = set()
+        self._live: set[_Running] = set()
         self._lock = threading.Lock()
         self._cancelled = False
+
+    @property
+    def capacity(self) -> int:
+        return self.workers
 
     def submit(self, task: SimulationTask) -> cf.Future:
         return self._threads.submit(self._run, task)
 
     def _run(self, task: SimulationTask) -> ShearTestResult:
-        if self._cancelled:
-            raise SimulationFailed("cancelled before it started", kind="cancelled")
-        timeout = task.timeout_s if task.timeout_s is not None else self.timeout_s
-        recv, send = self._ctx.Pipe(duplex=False)
-        proc = self._ctx.Process(target=_child_main, args=(task, send, os.getpid()), daemon=True,
-                                 name=f"calibrax-point-{task.point_id}")
+        handle = _Running()
         with self._lock:
-            self._live.add(proc)
+            if self._cancelled:
+                raise SimulationFailed("cancelled before it started", kind="cancelled")
+            self._live.add(handle)
         try:
-            proc.start()
-            send.close()
-            deadline = None if timeout is None else time.monotonic() + timeout
-            message = None
-            while message is None:
-                left = None if deadline is None else deadline - time.monotonic()
-                if left is not None and left <= 0:
-                    raise SimulationFailed(f"timed out after {timeout:g} s", kind="timeout")
-                if recv.poll(0.2 if left is None else min(0.2, left)):
-                    try:
-                        message = recv.recv()
-                    except EOFError:
-                        break
-                elif not proc.is_alive():
-                    if recv.poll(0.1):
-                        continue
-                    break
-            if message is None:
-                proc.join(1.0)
-                if self._cancelled:
-                    raise SimulationFailed("cancelled", kind="cancelled")
-                raise SimulationFailed(f"simulation process died (exit code {proc.exitcode})", kind="crash")
-            if message[0] == "ok":
-                return message[1]
-            raise SimulationFailed(message[1], message[2], kind=message[3])
+            timeout = task.timeout_s if task.timeout_s is not None else self.timeout_s
+            return run_isolated(task, timeout, handle)
         finally:
-            if proc.is_alive():
-                proc.kill()
-            proc.join(5.0)
-            recv.close()
             with self._lock:
-                self._live.discard(proc)
+                self._live.discard(handle)
 
     def shutdown(self, cancel: bool = False) -> None:
         if cancel:
-            self._cancelled = True
             with self._lock:
-                for proc in list(self._live):
-                    if proc.is_alive():
-                        proc.kill()
+                self._cancelled = True
+                for handle in list(self._live):
+                    handle.kill()
         self._threads.shutdown(wait=True, cancel_futures=cancel)

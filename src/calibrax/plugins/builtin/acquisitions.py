@@ -9,14 +9,19 @@ from __future__ import annotations
 import abc
 import warnings
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import torch
 
 from calibrax.core.acquisition import Observations
 from calibrax.core.parameters import ParameterSpace
-from calibrax.core.surrogate import DTYPE, Kriging
 from calibrax.errors import ConfigError
 from calibrax.plugins.hookspecs import hookimpl
+
+if TYPE_CHECKING:  # torch is imported only when a proposal is made: simulation processes never need it
+    import torch
+
+    from calibrax.core.surrogate import Kriging
 
 
 class _BoTorchAcquisition(abc.ABC):
@@ -33,13 +38,16 @@ class _BoTorchAcquisition(abc.ABC):
         self.num_restarts, self.raw_samples, self.mc_samples = num_restarts, raw_samples, mc_samples
 
     @abc.abstractmethod
-    def build(self, model: Kriging, observations: Observations, pending: torch.Tensor | None, sampler):
+    def build(self, model: "Kriging", observations: Observations, pending: "torch.Tensor | None", sampler):
         """The BoTorch acquisition function to maximise."""
 
-    def propose(self, model: Kriging | None, space: ParameterSpace, observations: Observations, q: int, *,
+    def propose(self, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+        import torch
         from botorch.optim import optimize_acqf
         from botorch.sampling import SobolQMCNormalSampler
+
+        from calibrax.core.surrogate import DTYPE
 
         if model is None:
             raise ConfigError("acquisition", f"{self.name} needs a fitted model")
@@ -105,12 +113,13 @@ class SobolAcquisition:
 
 def sobol_points(dim: int, n: int, seed: int = 0, skip: int = 0) -> np.ndarray:
     """``n`` scrambled Sobol points in [0, 1]^dim, shape (n, dim), after skipping ``skip``."""
+    import torch
     from torch.quasirandom import SobolEngine
 
     engine = SobolEngine(dimension=dim, scramble=True, seed=seed)
     if skip:
         engine.fast_forward(skip)
-    return engine.draw(n, dtype=DTYPE).numpy()
+    return engine.draw(n, dtype=torch.float64).numpy()
 
 
 @hookimpl
