@@ -87,6 +87,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         locus = exp.locus()
         print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
               f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
+        if config.executor == "dask" and config.executor_options.get("cluster") in ("slurm", "pbs"):
+            from calibrax.plugins.manager import get_manager
+
+            executor = get_manager().create("executor", "dask", **config.executor_options)
+            print("# the job script dask-jobqueue will submit:")
+            print("\n".join(f"#   {line}" for line in executor.job_script().splitlines()))
         print("# OK: nothing was run or written")
         return 0
     if args.json:

@@ -7,8 +7,14 @@ Its yield locus is a known function of (E, μs):
     AIF = atan(0.25 + 0.7 μs),   C = 300 Pa + 400 Pa · (log10(E / Pa) − 10) + 200 Pa · μs
 
 and each shear step's τ curve rises to its peak at 0.05 rad and softens after it.
-Environment knobs for fault tests: ``CALIBRAX_DOUBLE_SLEEP`` (seconds per simulation),
-``CALIBRAX_DOUBLE_FAIL_ABOVE_MU`` (raise SimulationFailed when μs is above it).
+Environment knobs for fault and scheduling tests:
+
+* ``CALIBRAX_DOUBLE_SLEEP``: seconds per simulation, or ``A-B`` for a duration drawn uniformly in
+  [A, B] from the simulation's seed (uneven durations);
+* ``CALIBRAX_DOUBLE_FAULT=KIND:MU``: above μs = MU, ``fail`` (raise SimulationFailed), ``crash``
+  (the process aborts), ``hang`` (sleeps for an hour) or ``nan`` (returns NaN peaks).
+
+Every completed simulation appends a line to ``completions.log`` in its work folder.
 """
 
 from __future__ import annotations
@@ -53,12 +59,24 @@ class AnalyticDoubleSimulator:
     def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
         t0 = time.perf_counter()
         m = spec.material
-        time.sleep(float(os.environ.get("CALIBRAX_DOUBLE_SLEEP", "0")))
-        fail_above = os.environ.get("CALIBRAX_DOUBLE_FAIL_ABOVE_MU")
-        if fail_above is not None and m.sliding_friction > float(fail_above):
+        sleep = os.environ.get("CALIBRAX_DOUBLE_SLEEP", "0")
+        if "-" in sleep:
+            low, high = (float(v) for v in sleep.split("-"))
+            time.sleep(np.random.default_rng(spec.numerics.seed).uniform(low, high))
+        else:
+            time.sleep(float(sleep))
+        fault, _, threshold = os.environ.get("CALIBRAX_DOUBLE_FAULT", "").partition(":")
+        faulty = bool(fault) and m.sliding_friction > float(threshold)
+        if faulty and fault == "fail":
             raise SimulationFailed(f"double told to fail at μs = {m.sliding_friction:.3f}", "double log tail",
                                    kind="unstable")
+        if faulty and fault == "crash":
+            os.abort()
+        if faulty and fault == "hang":
+            time.sleep(3600)
         c, aif = true_locus(m.youngs_modulus, m.sliding_friction)
+        if faulty and fault == "nan":
+            c = float("nan")
         slope = math.tan(math.radians(aif))
         p = spec.procedure
         steps, density = [], []
@@ -76,8 +94,10 @@ class AnalyticDoubleSimulator:
             density.append(0.6 * m.density)
         prov = Provenance(self.name, self.version(), spec.spec_hash(), spec.numerics.seed,
                           time.perf_counter() - t0, spec.particle_count)
-        (Path(workdir) / "double.log").write_text(f"analytic double at E={m.youngs_modulus} mu={m.sliding_friction}\n")
-        return ShearTestResult.from_steps(spec, steps, density, prov)
+        result = ShearTestResult.from_steps(spec, steps, density, prov)
+        with open(Path(workdir) / "completions.log", "a") as log:
+            log.write(f"completed E={m.youngs_modulus} mu={m.sliding_friction} seed={spec.numerics.seed}\n")
+        return result
 
 
 @hookimpl

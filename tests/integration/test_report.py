@@ -45,7 +45,7 @@ def test_report_of_a_campaign_with_json_progress(tmp_path):
 
 def test_report_of_a_store_with_failed_simulations(tmp_path):
     path = write_double_campaign(tmp_path, budget={"initial": 6, "iterations": 1})
-    proc = calibrax_cli("run", str(path), env=double_env(CALIBRAX_DOUBLE_FAIL_ABOVE_MU="0.6"))
+    proc = calibrax_cli("run", str(path), env=double_env(CALIBRAX_DOUBLE_FAULT="fail:0.6"))
     assert proc.returncode == 0, proc.stderr
     assert "FAILED" in proc.stderr and "double told to fail" in proc.stderr
     status = calibrax_cli("status", str(tmp_path / "runs/double.h5"))

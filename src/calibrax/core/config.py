@@ -290,7 +290,8 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     from calibrax.plugins.manager import get_manager
 
     manager = get_manager()
-    for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options)):
+    for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options),
+                              ("executor", executor, exec_options)):
         try:
             manager.create(kind, pname, **opts)
         except TypeError as exc:

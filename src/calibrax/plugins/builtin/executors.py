@@ -1,11 +1,12 @@
-"""Builtin executor ``local``: a process per simulation on this machine."""
+"""Builtin executors: ``local`` (a process per simulation on this machine) and ``dask``."""
 
 from __future__ import annotations
 
+from calibrax.core.dask_executor import DaskExecutor
 from calibrax.core.executor import LocalExecutor
 from calibrax.plugins.hookspecs import hookimpl
 
 
 @hookimpl
 def calibrax_executors() -> list[type]:
-    return [LocalExecutor]
+    return [LocalExecutor, DaskExecutor]

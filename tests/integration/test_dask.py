@@ -1,0 +1,75 @@
+"""The dask executor: a real dask.distributed scheduler with worker processes on localhost; a
+worker killed mid-simulation loses nothing; the SLURM job script rendered from a calibrax YAML."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import psutil
+import yaml
+
+from calibrax import CampaignStore, load_config
+from calibrax.plugins.manager import get_manager
+from tests.conftest import ROOT, calibrax_cli, double_env, write_double_campaign
+
+
+def test_worker_killed_mid_simulation_campaign_still_finishes(tmp_path):
+    path = write_double_campaign(tmp_path, budget={"initial": 4, "iterations": 2},
+                                 executor={"name": "dask", "cluster": "local", "workers": 2, "retries": 3})
+    env = double_env(CALIBRAX_DOUBLE_SLEEP="3")
+    proc = subprocess.Popen([sys.executable, "-m", "calibrax.cli", "run", str(path)], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killed = None
+    deadline = time.monotonic() + 120
+    while killed is None and time.monotonic() < deadline and proc.poll() is None:
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                if "calibrax.core.isolate" in " ".join(child.cmdline()):
+                    time.sleep(1.0)  # mid-simulation
+                    worker = child.parent()
+                    killed = (worker.pid, " ".join(child.cmdline()))
+                    worker.send_signal(signal.SIGKILL)
+                    break
+            except psutil.NoSuchProcess:
+                continue
+        time.sleep(0.1)
+    out, err = proc.communicate(timeout=300)
+    assert killed is not None, "no simulation was caught running"
+    assert proc.returncode == 0, err
+    points = CampaignStore(tmp_path / "runs/double.h5").points()
+    assert len(points) == 4 + 2 * 2
+    assert all(p.status == "done" for p in points), [p.sims for p in points if p.status != "done"]
+    for folder in (tmp_path / "runs/double.runs").iterdir():
+        completions = (folder / "completions.log").read_text().splitlines()
+        assert len(completions) == 1, f"{folder.name} ran to completion {len(completions)} times"
+
+
+def test_slurm_job_script_from_campaign_yaml(tmp_path):
+    executor = {"name": "dask", "cluster": "slurm", "workers": 4, "cores": 8, "memory": "16GB",
+                "walltime": "02:30:00", "queue": "compute", "account": "powder-lab",
+                "job_extra_directives": ["--exclusive", "--constraint=skylake"]}
+    path = write_double_campaign(tmp_path, executor=executor)
+    config = load_config(path)
+    script = get_manager().create("executor", "dask", **config.executor_options).job_script()
+    for line in ("#SBATCH -p compute", "#SBATCH -A powder-lab", "#SBATCH -n 1", "#SBATCH --cpus-per-task=8",
+                 "#SBATCH -t 02:30:00", "#SBATCH --exclusive", "#SBATCH --constraint=skylake"):
+        assert line in script, script
+    assert "#SBATCH --mem=15G" in script  # dask-jobqueue's rounding of 16 GB
+    assert "--resources cores=8" in script and "--nthreads 8" in script
+    check = calibrax_cli("run", str(path), "--check")
+    assert check.returncode == 0 and "#SBATCH -A powder-lab" in check.stdout, check.stderr
+
+
+def test_dask_executor_options_are_validated(tmp_path):
+    cases = [({"name": "dask"}, "give exactly one of 'address'"),
+             ({"name": "dask", "cluster": "sge"}, "executor.cluster: must be one of"),
+             ({"name": "dask", "cluster": "slurm"}, "executor.memory: is required"),
+             ({"name": "dask", "cluster": "local", "job_extra_directives": "--exclusive"}, "must be a list"),
+             ({"name": "dask", "address": "localhost:8786"}, "must look like tcp://HOST:PORT")]
+    for executor, message in cases:
+        path = write_double_campaign(tmp_path, executor=executor)
+        proc = calibrax_cli("run", str(path), "--check")
+        assert proc.returncode == 2 and message in proc.stderr, (executor, proc.stderr)
