@@ -184,7 +184,7 @@ def build_spec(cell: Any, material: Any) -> ShearCellSpec:
     mat_fields = {f.name for f in dataclasses.fields(Material)} | {"radius"}
     _mapping("material", material, mat_fields)
     preset = cell.get("preset", "quick")
-    if preset not in FIDELITY_PRESETS:
+    if not isinstance(preset, str) or preset not in FIDELITY_PRESETS:
         raise ConfigError("cell.preset", f"unknown preset {preset!r}; allowed: {sorted(FIDELITY_PRESETS)}")
     procedure = cell.get("procedure", "paper")
     proc_overrides: dict[str, Any] = {}
@@ -194,7 +194,7 @@ def build_spec(cell: Any, material: Any) -> ShearCellSpec:
         proc_overrides = _dataclass_values("cell.procedure", {k: v for k, v in procedure.items() if k != "preset"},
                                            Procedure)
         procedure = procedure.get("preset", "paper")
-    if procedure not in PROCEDURES:
+    if not isinstance(procedure, str) or procedure not in PROCEDURES:
         raise ConfigError("cell.procedure", f"unknown procedure {procedure!r}; allowed: {sorted(PROCEDURES)} "
                           "or a mapping of procedure fields")
     mat_values = _dataclass_values("material", {k: v for k, v in material.items() if k != "radius"}, Material)
