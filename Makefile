@@ -22,9 +22,9 @@ test: setup
 setup: engines $(STAMP)
 
 engines:
-	@if ! command -v liggghts >/dev/null || ! command -v yade >/dev/null; then \
-		echo "installing the DEM engines liggghts and yade (Debian packages)"; \
-		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts yade; \
+	@if ! command -v liggghts >/dev/null || ! command -v yade >/dev/null || ! command -v slurmctld >/dev/null; then \
+		echo "installing the DEM engines liggghts and yade, and slurm-wlm for the cluster test (Debian packages)"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts yade slurm-wlm; \
 	fi
 
 $(STAMP): pyproject.toml plugins/numba_dem/pyproject.toml

@@ -96,7 +96,8 @@ class AnalyticDoubleSimulator:
                           time.perf_counter() - t0, spec.particle_count)
         result = ShearTestResult.from_steps(spec, steps, density, prov)
         with open(Path(workdir) / "completions.log", "a") as log:
-            log.write(f"completed E={m.youngs_modulus} mu={m.sliding_friction} seed={spec.numerics.seed}\n")
+            log.write(f"completed E={m.youngs_modulus} mu={m.sliding_friction} seed={spec.numerics.seed} "
+                      f"slurm_job={os.environ.get('SLURM_JOB_ID', '-')}\n")
         return result
 
 
