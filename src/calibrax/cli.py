@@ -54,6 +54,35 @@ def _parser() -> argparse.ArgumentParser:
     status.add_argument("store", type=Path, help="the campaign's HDF5 store")
     status.add_argument("--json", action="store_true", help="print machine-readable JSON instead of a table")
 
+    cross = sub.add_parser("crosscheck", help="run the same shear test on several backends and compare",
+                           description="Run the campaign's shear-test spec at the same parameter points on each "
+                                       "backend with N seeds (through the campaign's executor), plus the micro-level "
+                                       "checks of every backend (two-sphere collision, sliding, rolling); write a "
+                                       "table (crosscheck.md) and a figure (C–AIF plane, one marker per backend, "
+                                       "error ellipses) and say where backends disagree beyond their uncertainty.")
+    cross.add_argument("config", type=Path, help="campaign YAML file (cell, material, executor are used)")
+    cross.add_argument("--backends", required=True, help="comma-separated simulators, e.g. numba_dem,liggghts,yade")
+    cross.add_argument("--seeds", type=int, default=3, help="seeds per point and backend (default 3)")
+    cross.add_argument("--points", action="append", default=[], metavar="NAME=V,...",
+                       help="a parameter point, e.g. youngs_modulus=2.5e10,sliding_friction=0.5 (repeatable; "
+                            "default: the campaign's material)")
+    cross.add_argument("--no-micro", action="store_true", help="skip the micro-level checks")
+    cross.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.crosscheck/)")
+    cross.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
+
+    conv = sub.add_parser("converge", help="fidelity study: particles per diameter, time step, shear rate",
+                          description="Run the campaign's spec at several fidelity settings with N seeds each and "
+                                      "state the cheapest setting whose C and AIF lie within the uncertainty of the "
+                                      "finest (converge.md, converge.png/svg).")
+    conv.add_argument("config", type=Path, help="campaign YAML file")
+    conv.add_argument("--particles-per-diameter", metavar="LIST", help="e.g. 15,20,25,34 (the paper: 25,34,46,63)")
+    conv.add_argument("--dt-fraction", metavar="LIST", help="fractions of the critical time step, e.g. 0.05,0.1,0.2")
+    conv.add_argument("--shear-rate", metavar="LIST", help="head rotation rates in rad/s, e.g. 0.5,1,2")
+    conv.add_argument("--seeds", type=int, default=3, help="seeds per setting (default 3)")
+    conv.add_argument("--backend", help="simulator (default: the campaign's)")
+    conv.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.converge/)")
+    conv.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
+
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
                             description="Write index.html (self-contained page), summary.md and PNG/SVG figures: "
                                         "C–AIF cartography, yield loci, τ curves of the best point, surrogate "
@@ -160,6 +189,73 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _study_setup(args: argparse.Namespace, kind: str):
+    from calibrax.core.config import load_config
+    from calibrax.errors import ConfigError
+    from calibrax.plugins.manager import get_manager
+
+    config = load_config(args.config)
+    if args.seeds < 1:
+        raise ConfigError("--seeds", f"must be ≥ 1, got {args.seeds}")
+    options = dict(config.executor_options)
+    if args.workers is not None:
+        if args.workers < 1:
+            raise ConfigError("--workers", f"must be ≥ 1, got {args.workers}")
+        options["workers"] = args.workers
+    executor = get_manager().create("executor", config.executor, **options)
+    out = args.output or config.store.with_suffix(f".{kind}")
+    out.mkdir(parents=True, exist_ok=True)
+    return config, executor, out
+
+
+def _cmd_crosscheck(args: argparse.Namespace) -> int:
+    from calibrax.core.crosscheck import agreements, crosscheck_cases, micro_agreement, micro_checks, parse_point
+    from calibrax.core.study import run_study
+    from calibrax.report.studies import crosscheck_figure, crosscheck_markdown
+
+    config, executor, out = _study_setup(args, "crosscheck")
+    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
+    cases = crosscheck_cases(config, backends, args.seeds, [parse_point(p, config) for p in args.points])
+    outcomes = run_study(cases, out / "crosscheck.h5", executor, config.workdir, "crosscheck")
+    micro = [] if args.no_micro else micro_agreement(micro_checks(config, backends))
+    agree = agreements(outcomes)
+    text = crosscheck_markdown(outcomes, agree, micro)
+    (out / "crosscheck.md").write_text(text, encoding="utf-8")
+    crosscheck_figure(outcomes, out)
+    print(text)
+    print(f"written: {out / 'crosscheck.md'}, {out / 'crosscheck.png'}, {out / 'crosscheck.h5'}")
+    return 0
+
+
+def _cmd_converge(args: argparse.Namespace) -> int:
+    from calibrax.core.convergence import converge_cases, verdicts
+    from calibrax.core.study import run_study
+    from calibrax.errors import ConfigError
+    from calibrax.report.studies import converge_figure, converge_markdown
+
+    settings = {}
+    for option, knob in (("particles_per_diameter", "particles_per_diameter"), ("dt_fraction", "dt_fraction"),
+                         ("shear_rate", "rotation_rate")):
+        raw = getattr(args, option)
+        if raw:
+            try:
+                settings[knob] = [float(v) for v in raw.split(",") if v.strip()]
+            except ValueError:
+                raise ConfigError(f"--{option.replace('_', '-')}", f"must be comma-separated numbers, got {raw!r}") from None
+    if not settings:
+        raise ConfigError("converge", "give at least one of --particles-per-diameter, --dt-fraction, --shear-rate")
+    config, executor, out = _study_setup(args, "converge")
+    cases = converge_cases(config, args.backend or config.simulator, args.seeds, settings)
+    outcomes = run_study(cases, out / "converge.h5", executor, config.workdir, "converge")
+    results = verdicts(outcomes)
+    text = converge_markdown(outcomes, results)
+    (out / "converge.md").write_text(text, encoding="utf-8")
+    converge_figure(outcomes, results, out)
+    print(text)
+    print(f"written: {out / 'converge.md'}, {out / 'converge.png'}, {out / 'converge.h5'}")
+    return 0
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from calibrax.plugins.manager import HOOKS, get_manager
 
@@ -199,7 +295,8 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
     warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
-    handlers = {"run": _cmd_run, "status": _cmd_status, "report": _cmd_report, "plugins": _cmd_plugins}
+    handlers = {"run": _cmd_run, "status": _cmd_status, "report": _cmd_report, "crosscheck": _cmd_crosscheck,
+                "converge": _cmd_converge, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)
     except CalibraxError as exc:

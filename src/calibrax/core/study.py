@@ -1,0 +1,151 @@
+"""Running a fixed set of simulations (a cross-check, a convergence study) through an executor into
+a store, with progress and resume — the campaign's machinery without the search.
+
+A study is a list of :class:`StudyCase` s, each one spec run on one backend with several seeds. Each
+case is stored as a point of a :class:`CampaignStore` (its ``acquisition`` attribute names the case),
+so a killed study resumes without repeating a finished simulation, and results keep their time
+series and provenance.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import hashlib
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from calibrax.core.executor import SimulationTask
+from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.store import CampaignStore
+from calibrax.core.yieldlocus import YieldLocus
+from calibrax.errors import CalibraxError, SimulationFailed
+
+log = logging.getLogger("calibrax")
+
+
+@dataclass(frozen=True)
+class StudyCase:
+    """One spec on one backend, run with ``seeds``; ``label`` names it in tables and figures and
+    ``coords`` are the case's coordinates (parameter values or fidelity knobs) for the store."""
+
+    label: str
+    backend: str
+    spec: ShearCellSpec
+    seeds: tuple[int, ...]
+    coords: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class CaseOutcome:
+    """What one case gave: per-seed results (None where a seed failed) and the statistics."""
+
+    case: StudyCase
+    results: list[ShearTestResult | None]
+    failures: list[str]
+
+    @property
+    def good(self) -> list[ShearTestResult]:
+        return [r for r in self.results if r is not None]
+
+    def locus(self) -> YieldLocus | None:
+        """Peaks of every seed pooled into one locus (None if fewer than two σ)."""
+        if not self.good:
+            return None
+        try:
+            return YieldLocus.fit(np.concatenate([r.target_normal_stress for r in self.good]),
+                                  np.concatenate([r.peak_shear_stress for r in self.good]))
+        except CalibraxError:
+            return None
+
+    def seed_loci(self) -> list[YieldLocus]:
+        out = []
+        for r in self.good:
+            try:
+                out.append(r.yield_locus())
+            except CalibraxError:
+                pass
+        return out
+
+    def summary(self) -> dict[str, float]:
+        """C and AIF (pooled fit) with their regression s.e., the seed-to-seed s.d., and the
+        uncertainty of the estimate u = max(regression s.e., s.d./√n); mean peaks per step (Pa),
+        bulk density after the first preshear (kg/m³)."""
+        locus = self.locus()
+        loci = self.seed_loci()
+        n = len(loci)
+        out: dict[str, float] = {"seeds_ok": float(len(self.good)), "seeds_failed": float(len(self.failures))}
+        if locus is None:
+            return out
+        c_sd = float(np.std([l.cohesion for l in loci], ddof=1)) if n >= 2 else float("nan")
+        a_sd = float(np.std([l.aif_deg for l in loci], ddof=1)) if n >= 2 else float("nan")
+        out.update({
+            "cohesion": locus.cohesion, "cohesion_stderr": locus.cohesion_stderr, "cohesion_seed_sd": c_sd,
+            "aif": locus.aif_deg, "aif_stderr": locus.aif_stderr_deg, "aif_seed_sd": a_sd,
+            "cohesion_u": float(np.nanmax([locus.cohesion_stderr, c_sd / math.sqrt(n) if n >= 2 else np.nan])),
+            "aif_u": float(np.nanmax([locus.aif_stderr_deg, a_sd / math.sqrt(n) if n >= 2 else np.nan])),
+            "bulk_density": float(np.mean([r.bulk_density[0] for r in self.good])),
+            "wall_time": float(np.mean([r.provenance.wall_time for r in self.good])),
+            "particles": float(self.good[0].provenance.particle_count),
+        })
+        peaks = np.stack([r.peak_shear_stress for r in self.good])
+        for k, sigma in enumerate(self.good[0].target_normal_stress):
+            out[f"peak_{sigma:.0f}"] = float(peaks[:, k].mean())
+            out[f"peak_{sigma:.0f}_sd"] = float(peaks[:, k].std(ddof=1)) if len(peaks) > 1 else float("nan")
+        return out
+
+
+def study_hash(cases: list[StudyCase]) -> str:
+    blob = json.dumps([[c.label, c.backend, c.spec.spec_hash(), list(c.seeds)] for c in cases], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path, kind: str) -> list[CaseOutcome]:
+    """Run every case's seeds through ``executor`` (resuming from ``store_path``), return the outcomes."""
+    from calibrax import __version__
+
+    with CampaignStore(store_path).acquire() as store:
+        store.initialise(study_hash(cases), {"study": kind, "cases": [c.label for c in cases]}, __version__)
+        if not store.points():
+            for i, c in enumerate(cases):
+                names = list(c.coords) or ["index"]
+                values = np.array([list(c.coords.values()) or [float(i)]])
+                store.add_batch(i, np.zeros_like(values), values, names, [list(c.seeds)], f"{c.backend}|{c.label}", None)
+        records = store.points()
+        futures: dict[cf.Future, tuple[int, int, int, float]] = {}
+        for i, (c, p) in enumerate(zip(cases, records)):
+            for s in p.sims:
+                if s.status == "pending":
+                    spec = c.spec.replace(numerics={"seed": s.seed})
+                    task = SimulationTask(p.id, c.backend, spec, workdir / f"{kind}-{p.id:04d}-s{s.index}")
+                    log.info("%s: %s on %s, seed %d starts", kind, c.label, c.backend, s.seed)
+                    futures[executor.submit(task)] = (i, p.id, s.index, time.monotonic())
+        try:
+            for fut in cf.as_completed(futures):
+                i, pid, index, t0 = futures[fut]
+                seed = cases[i].seeds[index]
+                try:
+                    result = fut.result()
+                    store.add_simulation(pid, index, seed, result, wall_time=time.monotonic() - t0)
+                    log.info("%s: %s on %s, seed %d done in %.0f s: peaks %s Pa", kind, cases[i].label,
+                             cases[i].backend, seed, time.monotonic() - t0,
+                             [round(float(t)) for t in result.peak_shear_stress])
+                except SimulationFailed as exc:
+                    store.add_simulation(pid, index, seed, None, reason=exc.reason, log_tail=exc.log_tail,
+                                         kind=exc.kind, wall_time=time.monotonic() - t0)
+                    log.warning("%s: %s on %s, seed %d FAILED [%s]: %s", kind, cases[i].label, cases[i].backend,
+                                seed, exc.kind, exc.reason)
+        except BaseException:
+            executor.shutdown(cancel=True)
+            raise
+        executor.shutdown()
+        outcomes = []
+        for c, p in zip(cases, store.points()):
+            results = [store.result(p.id, s.index) if s.status == "done" else None for s in p.sims]
+            outcomes.append(CaseOutcome(c, results, [s.reason for s in p.sims if s.status == "failed"]))
+        return outcomes
