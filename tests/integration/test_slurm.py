@@ -24,7 +24,7 @@ def slurm():
 
 def test_campaign_through_slurm(tmp_path, slurm):
     executor = {"name": "dask", "cluster": "slurm", "workers": 1, "cores": 2, "memory": "4GB",
-                "walltime": "00:15:00", "queue": slurm}
+                "walltime": "00:15:00", "queue": slurm, "log_directory": str(tmp_path / "slurm-logs")}
     path = write_double_campaign(tmp_path, budget={"initial": 3, "iterations": 1}, executor=executor)
     proc = calibrax_cli("run", str(path), env=double_env(CALIBRAX_DOUBLE_SLEEP="0.5"), timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]

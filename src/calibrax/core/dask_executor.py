@@ -45,12 +45,13 @@ class DaskExecutor:
 
     name = "dask"
     OPTIONS = {"address": str, "cluster": str, "workers": int, "cores": int, "memory": str, "walltime": str,
-               "queue": str, "account": str, "job_extra_directives": list, "timeout_s": float, "retries": int}
+               "queue": str, "account": str, "job_extra_directives": list, "log_directory": str, "timeout_s": float,
+               "retries": int}
 
     def __init__(self, address: str | None = None, cluster: str | None = None, workers: int = 2, cores: int = 1,
                  memory: str | None = None, walltime: str | None = None, queue: str | None = None,
                  account: str | None = None, job_extra_directives: list[str] | None = None,
-                 timeout_s: float | None = None, retries: int = 2) -> None:
+                 log_directory: str | None = None, timeout_s: float | None = None, retries: int = 2) -> None:
         import importlib.util
 
         if importlib.util.find_spec("distributed") is None:
@@ -73,6 +74,8 @@ class DaskExecutor:
             raise ConfigError("executor.timeout_s", f"must be > 0 s, got {timeout_s}")
         self.address, self.cluster_kind, self.workers, self.cores = address, cluster, workers, cores
         self.job = _job_options(cores, memory, walltime, queue, account, job_extra_directives)
+        if log_directory:
+            self.job["log_directory"] = log_directory  # where the batch system writes the jobs' output
         self.timeout_s, self.retries = timeout_s, retries
         self._client = None
         self._cluster = None

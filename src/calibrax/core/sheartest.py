@@ -422,14 +422,14 @@ FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
     },
     "quick": {
         "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0,
-        "procedure": {"rotation_rate": 2.0, "preshear_rotation": 0.25, "shear_rotation": 0.20,
-                      "settle_time": 0.01, "peak_window": 0.015},
+        "procedure": {"rotation_rate": 5.0, "preshear_rotation": 0.15, "shear_rotation": 0.12,
+                      "settle_time": 0.005, "peak_window": 0.015},
         "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
     },
     "tiny": {
         "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0,
-        "procedure": {"rotation_rate": 3.0, "preshear_rotation": 0.15, "shear_rotation": 0.15,
-                      "settle_time": 0.005, "peak_window": 0.015},
+        "procedure": {"rotation_rate": 6.0, "preshear_rotation": 0.12, "shear_rotation": 0.12,
+                      "settle_time": 0.004, "peak_window": 0.015},
         "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
     },
 }
