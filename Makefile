@@ -27,11 +27,11 @@ engines:
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts yade slurm-wlm; \
 	fi
 
-$(STAMP): pyproject.toml plugins/numba_dem/pyproject.toml
+$(STAMP): pyproject.toml plugins/numba_dem/pyproject.toml plugins/liggghts/pyproject.toml plugins/yade/pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q $(TORCH)
-	$(PY) -m pip install -q $(TORCH) -e '.[dev,dask]' -e plugins/numba_dem
+	$(PY) -m pip install -q $(TORCH) -e '.[dev,dask]' -e plugins/numba_dem -e plugins/liggghts -e plugins/yade
 	touch $(STAMP)
 
 clean-runs:

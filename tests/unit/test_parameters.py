@@ -29,9 +29,10 @@ def test_from_unit_clips_into_the_bounds():
 
 @pytest.mark.parametrize("raw, match", [
     ({"youngs_modulus": {"low": 5e10, "high": 5e9}}, "low must be < high"),
+    ({"sliding_friction": {"low": "abc", "high": 0.9}}, "must be a number"),
     ({"stiffness": {"low": 1, "high": 2}}, "unknown parameter"),
     ({"sliding_friction": {"low": 0.1}}, "high: is required"),
-    ({"sliding_friction": {"low": 0.1, "high": ".9"}}, "must be a number"),
+
     ({"sliding_friction": {"low": 0.0, "high": 0.9, "log": True}}, "> 0"),
     ({"youngs_modulus": {"low": 0.0, "high": 1e9}}, "must lie within"),
     ({}, "non-empty mapping"),

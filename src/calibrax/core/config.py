@@ -84,6 +84,11 @@ class CampaignConfig:
 def _number(key: str, v: Any, *, positive: bool = False, allow_none: bool = False) -> float | None:
     if v is None and allow_none:
         return None
+    if isinstance(v, str):  # PyYAML reads 5.0e9 (no sign in the exponent) as text: accept numeric text
+        try:
+            v = float(v)
+        except ValueError:
+            raise ConfigError(key, f"must be a number, got str {v!r}") from None
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise ConfigError(key, f"must be a number, got {type(v).__name__} {v!r}")
     if not math.isfinite(v):

@@ -100,6 +100,11 @@ class ParameterSpace:
                 if bound not in body:
                     raise ConfigError(f"{k}.{bound}", "is required")
                 v = body[bound]
+                if isinstance(v, str):  # PyYAML reads 5.0e9 as text
+                    try:
+                        v = body[bound] = float(v)
+                    except ValueError:
+                        pass
                 if isinstance(v, bool) or not isinstance(v, (int, float)):
                     raise ConfigError(f"{k}.{bound}", f"must be a number, got {type(v).__name__} {v!r}")
                 if not math.isfinite(v):

@@ -1,0 +1,358 @@
+"""The LIGGGHTS input script, data file and meshes of one FT4 shear test, written from a
+:class:`~calibrax.core.sheartest.ShearCellSpec`.
+
+Every number reaches the script through :func:`num` or :func:`integer` (finite float or int,
+formatted here); no text from a configuration is ever pasted into it.
+
+Conventions, identical to the numba_dem backend (``plugins/numba_dem``):
+
+* σ = F / (π R_head²), F the upward force of the particles on the whole head (disc and blades);
+  τ = 3T / (2π R_head³), T the torque about the axis that the bed opposes to the head's rotation;
+  both averaged over each sample interval (``numerics.sample_interval``).
+* rotation counted from 0 at the start of each step, recorded at the end of each sample interval;
+  bed height = height of the head's lower face (the disc) above the base at that instant.
+* fill: the same seeded loose lattice column as numba_dem (same radii, positions and initial
+  velocities for the same seed), poured under 3 g with friction 0.1 and no rolling friction,
+  until the fastest particle is below 0.02 m/s, then the material's friction and 1 g for 3 ms.
+* the head's blade tips are placed half a particle diameter above the bed's highest particle,
+  then a stress servo takes the head in at ≤ 0.2 m/s and consolidates the bed at the preshear σ;
+  for each shear σ: (settle at the preshear σ, except the first), preshear rotation, bulk density,
+  settle at the shear σ for ``settle_time``, shear rotation.
+
+Atom types: 1 base (and ribs), 2 lateral wall, 3 head, 4 particles while pouring, 5 particles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from calibrax.core.sheartest import ShearCellSpec
+from calibrax.errors import SpecError
+
+from . import mesh as meshes
+from .packing import initial_state
+
+__all__ = ["num", "integer", "ScriptPlan", "write_inputs", "servo_gains", "SCRIPT_NAME", "DATA_NAME"]
+
+SCRIPT_NAME = "in.calibrax"
+DATA_NAME = "particles.data"
+
+#: friction while pouring (numba_dem: POUR_FRICTION)
+POUR_FRICTION = 0.1
+#: gravity multiplier while pouring (numba_dem: POUR_GRAVITY)
+POUR_GRAVITY = 3.0
+#: the pour ends when the fastest particle is slower than this, m/s
+POUR_SPEED = 0.02
+#: servo speed limit during approach and consolidation / during shear, m/s (as numba_dem)
+APPROACH_SPEED = 0.2
+SHEAR_SPEED_LIMIT = 0.05
+#: blade tips this many particle diameters above the bed before the servo takes over
+APPROACH_CLEARANCE = 0.5
+#: speed of the blind move of the head from its parking height to the approach height, m/s
+PLACE_SPEED = 0.5
+#: the approach moves at APPROACH_SPEED until the head carries this fraction of the target load
+APPROACH_LOAD = 0.3
+#: servo bandwidth, 1/s, and integral corner as a fraction of it
+SERVO_BANDWIDTH = 5000.0
+SERVO_INTEGRAL = 0.5
+
+T_BASE, T_WALL, T_HEAD, T_POUR, T_PART = 1, 2, 3, 4, 5
+NTYPES = 5
+
+
+def num(value: object, key: str = "value") -> str:
+    """A finite real number formatted for the script; :class:`SpecError` for anything else."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SpecError(key, f"must be a finite number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise SpecError(key, f"must be a finite number, got {value!r}")
+    return format(x, ".17g")
+
+
+def integer(value: object, key: str = "value") -> str:
+    """An integer formatted for the script; :class:`SpecError` for anything else."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise SpecError(key, f"must be an integer, got {value!r}")
+    return str(int(value))
+
+
+def servo_gains(spec: ShearCellSpec, bed_height: float) -> tuple[float, float, float]:
+    """(k_bed in N/m, K_p in m/(s·N), K_i in m/(s²·N)) of the head's PI stress servo.
+
+    The head's vertical velocity is v = K_p (F − F*) + K_i ∫(F − F*) dt (positive up), clamped to
+    the phase's speed limit. k_bed is the bed's vertical stiffness estimated as numba_dem's
+    ``servo_gains`` does (columns of Hertz contacts at the preshear σ); K_p = λ / k_bed gives a
+    closed-loop rate λ = ``SERVO_BANDWIDTH``; the integral removes the steady error of a bed that
+    dilates or compacts under shear (the failure of a proportional servo, DESIGN §3).
+    """
+    m = spec.material
+    r = spec.radius
+    e_star = m.youngs_modulus / (2.0 * (1.0 - m.poisson_ratio**2))
+    area = math.pi * spec.geometry.head_radius**2
+    f = spec.procedure.preshear_stress * (2.0 * r) ** 2
+    reff = r / 2.0
+    delta = (f / (4.0 / 3.0 * e_star * math.sqrt(reff))) ** (2.0 / 3.0)
+    k_c = 2.0 * e_star * math.sqrt(reff * delta)
+    k_bed = k_c * area / (2.0 * r * bed_height)
+    kp = SERVO_BANDWIDTH / k_bed
+    ki = SERVO_INTEGRAL * SERVO_BANDWIDTH * kp
+    return k_bed, kp, ki
+
+
+@dataclass(frozen=True)
+class ScriptPlan:
+    """What the parser needs to know about the written script."""
+
+    dt: float
+    sample_steps: int
+    steps: tuple[tuple[str, float, int, str], ...]  # (kind, target σ, samples, file name)
+    n_particles: int
+    z_park: float
+    vessel_radius: float
+    head_area: float
+
+
+def _matrix(values: dict[tuple[int, int], float], default: float, key: str) -> str:
+    out = []
+    for i in range(1, NTYPES + 1):
+        for j in range(1, NTYPES + 1):
+            v = values.get((i, j), values.get((j, i), default))
+            out.append(num(v, key))
+    return " ".join(out)
+
+
+def _steps(duration: float, dt: float, multiple: int) -> int:
+    """Whole multiples of ``multiple`` steps covering ``duration`` (at least one multiple)."""
+    n = int(math.ceil(duration / dt / multiple - 1e-9))
+    return max(1, n) * multiple
+
+
+def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
+    """Write the data file, the STL meshes and the input script of ``spec`` into ``workdir``.
+
+    ``spec`` must already be validated. Returns the :class:`ScriptPlan` the parser uses.
+    """
+    g, m, p, n = spec.geometry, spec.material, spec.procedure, spec.numerics
+    workdir = Path(workdir)
+    dt = spec.time_step
+    r = spec.radius
+    d = 2.0 * r
+    rc = g.vessel_diameter / 2.0
+    area = math.pi * g.head_radius**2
+    per = max(1, int(round(n.sample_interval / dt)))
+
+    # ---------------------------------------------------------------- particles (numba_dem's)
+    x, radii, v = initial_state(spec)
+    r_max = float(radii.max())
+    h0 = float(np.max(x[:, 2] + radii))
+    z_park = h0 + g.blade_height + 2.0 * d  # head's parking height: blade tips above the column
+    z_box = z_park + 4.0 * d
+    half = 1.1 * rc + 2.0 * r_max
+    lines = ["calibrax LIGGGHTS particles (generated)", "",
+             f"{integer(len(radii))} atoms", f"{integer(NTYPES)} atom types", "",
+             f"{num(-half)} {num(half)} xlo xhi", f"{num(-half)} {num(half)} ylo yhi",
+             f"{num(-2.0 * r_max)} {num(z_box)} zlo zhi", "", "Atoms", ""]
+    for i in range(len(radii)):
+        lines.append(f"{integer(i + 1)} {integer(T_POUR)} {num(2.0 * radii[i], 'radius')} "
+                     f"{num(m.density, 'material.density')} {num(x[i, 0])} {num(x[i, 1])} {num(x[i, 2])}")
+    lines += ["", "Velocities", ""]
+    for i in range(len(radii)):
+        lines.append(f"{integer(i + 1)} {num(v[i, 0])} {num(v[i, 1])} {num(v[i, 2])} 0 0 0")
+    (workdir / DATA_NAME).write_text("\n".join(lines) + "\n", encoding="ascii")
+
+    # ---------------------------------------------------------------- meshes
+    meshes.write_stl(workdir / "base.stl", meshes.base_mesh(rc, r), "base")
+    meshes.write_stl(workdir / "vessel.stl", meshes.vessel_mesh(rc, z_box - 0.5 * d, r), "vessel")
+    meshes.write_stl(workdir / "head.stl", meshes.head_mesh(g.head_radius, g.hub_radius, g.blade_count,
+                                                            g.blade_height, r), "head")
+    mesh_ids = ["base"]
+    if g.base_ribs > 0:
+        meshes.write_stl(workdir / "ribs.stl", meshes.ribs_mesh(rc, g.base_ribs, g.rib_height, r), "ribs")
+        mesh_ids.append("ribs")
+    mesh_ids += ["vessel", "head"]
+
+    # ---------------------------------------------------------------- materials
+    mu_b, mur_b = spec.effective_base_friction()
+    mu_h = spec.effective_head_friction()
+    mur_wall = m.rolling_friction if g.wall_friction > 0 else 0.0
+    friction = _matrix({(T_POUR, T_POUR): POUR_FRICTION, (T_POUR, T_PART): POUR_FRICTION,
+                        (T_POUR, T_BASE): POUR_FRICTION, (T_POUR, T_WALL): min(g.wall_friction, POUR_FRICTION),
+                        (T_POUR, T_HEAD): POUR_FRICTION,
+                        (T_PART, T_PART): m.sliding_friction, (T_PART, T_BASE): mu_b,
+                        (T_PART, T_WALL): g.wall_friction, (T_PART, T_HEAD): mu_h}, 0.0, "friction")
+    rolling = _matrix({(T_PART, T_PART): m.rolling_friction, (T_PART, T_BASE): mur_b,
+                       (T_PART, T_WALL): mur_wall, (T_PART, T_HEAD): m.rolling_friction}, 0.0, "rolling_friction")
+    cohesive = m.cohesion_energy_density > 0
+    # LIGGGHTS wants the keywords in this order: model, tangential, cohesion, rolling_friction
+    model = ("model hertz tangential history" + (" cohesion sjkr" if cohesive else "")
+             + " rolling_friction epsd2")
+    E = num(m.youngs_modulus, "material.youngs_modulus")
+    nu = num(m.poisson_ratio, "material.poisson_ratio")
+    e = num(m.restitution, "material.restitution")
+
+    # ---------------------------------------------------------------- servo
+    k_bed, kp, ki = servo_gains(spec, g.fill_height)
+    f_pre = p.preshear_stress * area
+
+    def chunk(duration: float) -> str:
+        return integer(_steps(duration, dt, per))
+
+    s: list[str] = []
+    add = s.append
+    add("# calibrax FT4 shear test for LIGGGHTS 3.8 (generated; every number formatted by calibrax_liggghts)")
+    add(f"# spec {spec.spec_hash()}; servo: k_bed {num(k_bed)} N/m")
+    for line in ("atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
+                 "communicate single vel yes", "units si", "hard_particles yes"):
+        add(line)
+    add(f"read_data {DATA_NAME}")
+    add(f"neighbor {num(0.4 * r_max)} bin")
+    add("neigh_modify delay 0")
+    add(f"fix m1 all property/global youngsModulus peratomtype {' '.join([E] * NTYPES)}")
+    add(f"fix m2 all property/global poissonsRatio peratomtype {' '.join([nu] * NTYPES)}")
+    add(f"fix m3 all property/global coefficientRestitution peratomtypepair {integer(NTYPES)} "
+        f"{' '.join([e] * NTYPES * NTYPES)}")
+    add(f"fix m4 all property/global coefficientFriction peratomtypepair {integer(NTYPES)} {friction}")
+    add(f"fix m5 all property/global coefficientRollingFriction peratomtypepair {integer(NTYPES)} {rolling}")
+    if cohesive:
+        k = num(m.cohesion_energy_density, "material.cohesion_energy_density")
+        add(f"fix m6 all property/global cohesionEnergyDensity peratomtypepair {integer(NTYPES)} "
+            f"{' '.join([k] * NTYPES * NTYPES)}")
+    add(f"pair_style gran {model}")
+    add("pair_coeff * *")
+    add(f"timestep {num(dt)}")
+    add(f"fix gravi all gravity {num(9.81 * POUR_GRAVITY)} vector 0.0 0.0 -1.0")
+    add(f"fix base all mesh/surface file base.stl type {integer(T_BASE)}")
+    if g.base_ribs > 0:
+        add(f"fix ribs all mesh/surface file ribs.stl type {integer(T_BASE)}")
+    add(f"fix vessel all mesh/surface file vessel.stl type {integer(T_WALL)}")
+    add(f"fix head all mesh/surface/stress file head.stl type {integer(T_HEAD)} move 0.0 0.0 {num(z_park)}")
+    add(f"fix walls all wall/gran {model} mesh n_meshes {integer(len(mesh_ids))} meshes {' '.join(mesh_ids)}")
+    add("fix integr all nve/sphere")
+    # -- measurements
+    add("compute prad all property/atom radius")
+    add("variable ztopa atom z+c_prad")
+    add("compute ztop all reduce update_on_run_end yes max v_ztopa")
+    add("variable ztop equal c_ztop")
+    add("variable speed2 atom vx*vx+vy*vy+vz*vz")
+    add("compute vmax2 all reduce update_on_run_end yes max v_speed2")
+    add("variable vmax equal sqrt(c_vmax2)")
+    add(f"variable zh equal {num(z_park)}+f_head[9]")
+    add("variable fup equal f_head[3]")
+    add("variable tres equal -f_head[6]")
+    add("variable stp equal step")
+    add("variable mbelow atom mass*(z<v_zh)")
+    add("compute mbelow all reduce update_on_run_end yes sum v_mbelow")
+    add(f"variable bulk equal c_mbelow/({num(math.pi * rc * rc)}*v_zh)")
+    # particles outside the vessel (escaped through a gap): counted at the end of every step
+    add(f"variable outside atom (x*x+y*y)>({num(rc)}+c_prad)*({num(rc)}+c_prad)")
+    add("compute nout all reduce update_on_run_end yes sum v_outside")
+    add("variable nout equal c_nout")
+    # -- head motion: vertical velocity and rotation from variables
+    add("variable ftgt equal 0.0")
+    add("variable vlim equal 0.0")
+    add("variable vz equal 0.0")
+    add("variable vzero equal 0.0")
+    add("variable omega equal 0.0")
+    add("fix hlin all move/mesh mesh head linear/variable v_vzero v_vzero v_vz")
+    add("fix hrot all move/mesh mesh head rotate/variable origin 0.0 0.0 0.0 axis 0.0 0.0 1.0 omega v_omega")
+    add("thermo_style custom step atoms ke cpu")
+    add(f"thermo {integer(_steps(0.01, dt, per))}")
+    add("thermo_modify lost error norm no")
+    add(f'print "CALIBRAX start particles {integer(len(radii))}"')
+
+    # ---------------------------------------------------------------- pour (numba_dem's)
+    t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (9.81 * POUR_GRAVITY))
+    n_loops = int(math.ceil((10.0 * t_fall + 0.05 - 1.5 * t_fall) / 2.0e-3))
+    add(f"run {chunk(1.5 * t_fall)}")
+    add(f"variable ipour loop {integer(n_loops)}")
+    add("label pour")
+    add(f'if "${{vmax}} < {num(POUR_SPEED)}" then "jump SELF pourdone"')
+    add(f"run {chunk(2.0e-3)}")
+    add("next ipour")
+    add("jump SELF pour")
+    add("label pourdone")
+    add(f"set group all type {integer(T_PART)}")
+    add("unfix gravi")
+    add("fix gravi all gravity 9.81 vector 0.0 0.0 -1.0")
+    add(f"run {chunk(3.0e-3)}")
+    add('print "CALIBRAX poured ${stp} ${ztop} ${vmax}"')
+
+    # ---------------------------------------------------------------- place the head, consolidate
+    add(f"variable ztarget equal v_ztop+{num(g.blade_height + APPROACH_CLEARANCE * d)}")
+    add(f"variable nplace equal {integer(per)}*floor((v_zh-v_ztarget)/{num(PLACE_SPEED * dt * per)})")
+    add(f"variable vz equal {num(-PLACE_SPEED)}")
+    add('if "${nplace} > 0" then "run ${nplace}"')
+    add("variable vz equal 0.0")
+    add('print "CALIBRAX placed ${stp} ${zh} ${ztop}"')
+    add(f"variable ftgt equal {num(f_pre)}")
+    add("variable err equal v_fup-v_ftgt")
+    clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
+    add(f"variable vlim equal {num(APPROACH_SPEED)}")
+    # the integral only runs while the head carries load, so the approach does not wind it up
+    add(f"variable erri equal v_err*(v_fup>={num(APPROACH_LOAD)}*v_ftgt)")
+    add("fix integ all ave/time 1 1 1 v_erri ave running")
+    add("variable s0 equal ${stp}")
+    add(f"variable vraw equal {num(kp)}*v_err+{num(ki * dt)}*f_integ*(step-v_s0)")
+    load = num(APPROACH_LOAD)
+    add(f"variable vz equal (v_fup<{load}*v_ftgt)*(-v_vlim)+(v_fup>={load}*v_ftgt)*({clamp})")
+    # σ averaged over each 3 ms chunk (numba_dem averages the last 1 ms; this tiny bed's σ is too noisy
+    # for that), the head's travel over the chunk
+    add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
+    n_cons = int(math.ceil(0.3 / 3.0e-3))
+    add("variable zprev equal ${zh}")
+    add("variable consok equal 0")
+    add(f"variable icons loop {integer(n_cons)}")
+    add("label cons")
+    add(f"run {chunk(3.0e-3)}")
+    add("variable dz equal abs(v_zh-v_zprev)")
+    add(f"variable serr equal abs(f_cons/{num(f_pre)}-1.0)")
+    add(f'if "${{icons}} > 3 && ${{dz}} < {num(0.005 * d)} && ${{serr}} < 0.05" '
+        'then "variable consok equal 1" "jump SELF consdone"')
+    add("variable zprev equal ${zh}")
+    add("next icons")
+    add("jump SELF cons")
+    add("label consdone")
+    add('print "CALIBRAX consolidated ${stp} ${zh} ${serr} ${consok}"')
+    add("unfix cons")
+    add(f"variable vz equal {clamp}")
+    add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")
+
+    steps: list[tuple[str, float, int, str]] = []
+
+    def settle(stress: float) -> None:
+        add("variable omega equal 0.0")
+        add(f"variable ftgt equal {num(stress * area, 'procedure stress')}")
+        if p.settle_time > 0:
+            add(f"run {chunk(p.settle_time)}")
+
+    def rotate(kind: str, stress: float, rotation: float) -> None:
+        j = len(steps)
+        nsamples = max(2, int(math.ceil(rotation / p.rotation_rate / (per * dt))))
+        fname = f"step_{j:02d}.txt"
+        add(f"variable ftgt equal {num(stress * area, 'procedure stress')}")
+        add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
+        add(f"fix rec all ave/time 1 {integer(per)} {integer(per)} v_fup v_tres file {fname}")
+        add(f'fix recz all print {integer(per)} "${{stp}} ${{zh}}" file z_{fname} screen no')
+        add(f'print "CALIBRAX begin {integer(j)} ${{stp}}"')
+        add(f"run {integer(nsamples * per)}")
+        add("unfix rec")
+        add("unfix recz")
+        add("variable omega equal 0.0")
+        add(f'print "CALIBRAX end {integer(j)} ${{stp}} ${{zh}} ${{nout}}"')
+        steps.append((kind, float(stress), nsamples, fname))
+
+    for k, sigma in enumerate(p.shear_stresses):
+        if k > 0:
+            settle(p.preshear_stress)
+        rotate("preshear", p.preshear_stress, p.preshear_rotation)
+        add(f'print "CALIBRAX bulk {integer(k)} ${{bulk}}"')
+        settle(sigma)
+        rotate("shear", sigma, p.shear_rotation)
+    add('print "CALIBRAX done ${stp}"')
+    (workdir / SCRIPT_NAME).write_text("\n".join(s) + "\n", encoding="ascii")
+    return ScriptPlan(dt=dt, sample_steps=per, steps=tuple(steps), n_particles=len(radii), z_park=z_park,
+                      vessel_radius=rc, head_area=area)

@@ -1,0 +1,177 @@
+"""Verification cases of LIGGGHTS' contact law, with the same signatures and return values as
+``calibrax_numba_dem.verification``, so that one cross-check command can run both backends.
+
+Each function writes a tiny LIGGGHTS script into ``workdir`` (a temporary folder by default),
+runs the real ``liggghts`` binary and returns what it measured next to the theory, as a plain
+dict. SI units throughout.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from . import mesh as meshes
+from .script import integer, num
+from .simulator import run_liggghts
+
+__all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
+
+
+def hertz_contact_time(radius: float, youngs_modulus: float, poisson_ratio: float, density: float,
+                       speed: float) -> float:
+    """Duration of an elastic Hertz impact of two equal spheres at relative speed ``speed`` (m/s):
+    t_c = 2.87 (m*² / (R* E*² v))^(1/5), s, with m* = m/2, R* = R/2, E* = E / (2(1 − ν²))."""
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    return 2.87 * ((m / 2.0) ** 2 / (radius / 2.0 * e_star**2 * speed)) ** 0.2
+
+
+def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
+                         youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                         steps_per_contact: int = 500, workdir: Path | None = None) -> dict[str, float]:
+    """Head-on impact of two equal spheres at relative speed ``speed`` (m/s), no gravity, on
+    LIGGGHTS with the shear test's contact model (hertz, tangential history, EPSD2).
+
+    Returns:
+        dict with ``contact_time`` (s, measured: steps with overlap × Δt), ``hertz_contact_time``
+        (s, theory for e = 1), ``restitution`` (measured −v_rel,out / v_rel,in), ``energy_change``
+        ((KE_out − KE_in)/KE_in) and ``dt`` (s).
+    """
+    t_c = hertz_contact_time(radius, youngs_modulus, poisson_ratio, density, speed)
+    dt = t_c / steps_per_contact
+    gap = 0.1 * speed * t_c
+    nsteps = int(3 * steps_per_contact)
+    half = 4.0 * radius
+    data = ["calibrax two-sphere collision", "", "2 atoms", "1 atom types", "",
+            f"{num(-half)} {num(half)} xlo xhi", f"{num(-half)} {num(half)} ylo yhi",
+            f"{num(-half)} {num(half)} zlo zhi", "", "Atoms", "",
+            f"1 1 {num(2 * radius)} {num(density)} {num(-radius - gap)} 0 0",
+            f"2 1 {num(2 * radius)} {num(density)} {num(radius + gap)} 0 0", "", "Velocities", "",
+            f"1 {num(0.5 * speed)} 0 0 0 0 0", f"2 {num(-0.5 * speed)} 0 0 0 0 0"]
+    script = ["atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
+              "communicate single vel yes", "units si", "hard_particles yes", "read_data two.data",
+              f"neighbor {num(0.5 * radius)} bin", "neigh_modify delay 0",
+              f"fix m1 all property/global youngsModulus peratomtype {num(youngs_modulus)}",
+              f"fix m2 all property/global poissonsRatio peratomtype {num(poisson_ratio)}",
+              f"fix m3 all property/global coefficientRestitution peratomtypepair 1 {num(restitution)}",
+              "fix m4 all property/global coefficientFriction peratomtypepair 1 0.5",
+              "fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.0",
+              "pair_style gran model hertz tangential history rolling_friction epsd2",
+              "pair_coeff * *", f"timestep {num(dt)}", "fix integr all nve/sphere",
+              "variable stp equal step", "variable gap equal x[2]-x[1]", "variable vrel equal vx[2]-vx[1]",
+              'fix out all print 1 "${stp} ${gap} ${vrel}" file two.txt screen no',
+              "thermo 100000", f"run {integer(nsteps)}"]
+    with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        (wd / "two.data").write_text("\n".join(data) + "\n", encoding="ascii")
+        (wd / "in.two").write_text("\n".join(script) + "\n", encoding="ascii")
+        run_liggghts(wd, script="in.two", timeout_s=300, log_name="log.two", screen_name="screen.two")
+        rows = np.loadtxt(wd / "two.txt", comments="#", ndmin=2)
+    distance = rows[:, 1]
+    in_contact = int(np.sum(distance < 2.0 * radius))
+    v_out = float(rows[-1, 2])
+    return {"contact_time": in_contact * dt, "hertz_contact_time": t_c, "restitution": v_out / speed,
+            "energy_change": (v_out**2 - speed**2) / speed**2, "dt": dt}
+
+
+def _rest_overlap(radius: float, mass: float, e_star: float, g: float) -> float:
+    return (mass * g / (4.0 / 3.0 * e_star * math.sqrt(radius))) ** (2.0 / 3.0)
+
+
+def _sphere_on_base(workdir: Path, *, radius: float, youngs_modulus: float, poisson_ratio: float, density: float,
+                    restitution: float, friction: float, rolling_friction: float, g: float, dt: float,
+                    velocity: tuple[float, float, float], spin: tuple[float, float, float], nsteps: int,
+                    every: int) -> np.ndarray:
+    """One sphere resting (at its static overlap) on a base mesh at z = 0; rows (step, vx, ωx)."""
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    z0 = radius - _rest_overlap(radius, m, e_star, g)
+    half = 0.5
+    data = ["calibrax sphere on base", "", "1 atoms", "1 atom types", "",
+            f"{num(-half)} {num(half)} xlo xhi", f"{num(-half)} {num(half)} ylo yhi",
+            f"{num(-4 * radius)} {num(8 * radius)} zlo zhi", "", "Atoms", "",
+            f"1 1 {num(2 * radius)} {num(density)} 0 0 {num(z0)}", "", "Velocities", "",
+            "1 " + " ".join(num(v) for v in velocity) + " " + " ".join(num(w) for w in spin)]
+    meshes.write_stl(workdir / "plane.stl", meshes.base_mesh(0.45, radius), "plane")
+    script = ["atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
+              "communicate single vel yes", "units si", "hard_particles yes", "read_data one.data",
+              f"neighbor {num(0.5 * radius)} bin", "neigh_modify delay 0",
+              f"fix m1 all property/global youngsModulus peratomtype {num(youngs_modulus)}",
+              f"fix m2 all property/global poissonsRatio peratomtype {num(poisson_ratio)}",
+              f"fix m3 all property/global coefficientRestitution peratomtypepair 1 {num(restitution)}",
+              f"fix m4 all property/global coefficientFriction peratomtypepair 1 {num(friction)}",
+              f"fix m5 all property/global coefficientRollingFriction peratomtypepair 1 {num(rolling_friction)}",
+              "pair_style gran model hertz tangential history rolling_friction epsd2", "pair_coeff * *",
+              f"timestep {num(dt)}", f"fix gravi all gravity {num(g)} vector 0.0 0.0 -1.0",
+              "fix plane all mesh/surface file plane.stl type 1",
+              "fix walls all wall/gran model hertz tangential history rolling_friction epsd2 mesh n_meshes 1 "
+              "meshes plane",
+              "fix integr all nve/sphere",
+              "compute om all property/atom omegax", "compute omsum all reduce sum c_om",
+              "variable stp equal step", "variable vx1 equal vx[1]", "variable wx equal c_omsum",
+              f'fix out all print {integer(every)} "${{stp}} ${{vx1}} ${{wx}}" file one.txt screen no',
+              "thermo 1000000", f"run {integer(nsteps)}"]
+    (workdir / "one.data").write_text("\n".join(data) + "\n", encoding="ascii")
+    (workdir / "in.one").write_text("\n".join(script) + "\n", encoding="ascii")
+    run_liggghts(workdir, script="in.one", timeout_s=300, log_name="log.one", screen_name="screen.one")
+    return np.loadtxt(workdir / "one.txt", comments="#", ndmin=2)
+
+
+def sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 0.9e-3,
+                    youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                    restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6,
+                    workdir: Path | None = None) -> dict[str, float]:
+    """A sphere launched without spin along a flat base mesh of friction ``friction``.
+
+    While it slides, Coulomb friction decelerates it at μs·g. Returns ``deceleration`` (m/s²,
+    least-squares slope of v(t) over the middle 80 % of the sliding phase), ``expected`` (μs·g)
+    and ``sliding_time`` (s, theory 2 v0 / (7 μs g)).
+    """
+    t_slide = 2.0 * speed / (7.0 * friction * g)
+    every = max(1, int(t_slide / dt / 200))
+    with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        rows = _sphere_on_base(wd, radius=radius, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                               density=density, restitution=restitution, friction=friction, rolling_friction=0.0,
+                               g=g, dt=dt, velocity=(speed, 0.0, 0.0), spin=(0.0, 0.0, 0.0),
+                               nsteps=int(math.ceil(t_slide / dt)), every=every)
+    t = rows[:, 0] * dt
+    sel = (t > 0.1 * t_slide) & (t < 0.9 * t_slide)
+    slope = np.polyfit(t[sel], rows[sel, 1], 1)[0]
+    return {"deceleration": -float(slope), "expected": friction * g, "sliding_time": t_slide}
+
+
+def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius: float = 0.9e-3,
+                       youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                       restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6,
+                       workdir: Path | None = None) -> dict[str, float]:
+    """A sphere spinning about a horizontal axis on a base mesh without sliding friction, with
+    EPSD2 rolling resistance ``rolling_friction``: its torque saturates at μr·R·m·g, so ω falls
+    linearly. Returns ``torque`` (N·m, I·|dω/dt| over the saturated phase), ``expected``
+    (μr R m g) and ``peak_torque`` (N·m, largest I·|Δω/Δt| between samples).
+    """
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    inertia = 0.4 * m * radius**2
+    expected = rolling_friction * radius * m * g
+    t_stop = spin * inertia / expected
+    nsteps = int(0.8 * t_stop / dt)
+    every = max(1, nsteps // 400)
+    with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        rows = _sphere_on_base(wd, radius=radius, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                               density=density, restitution=restitution, friction=0.0,
+                               rolling_friction=rolling_friction, g=g, dt=dt, velocity=(0.0, 0.0, 0.0),
+                               spin=(spin, 0.0, 0.0), nsteps=nsteps, every=every)
+    t = rows[:, 0] * dt
+    w = rows[:, 2]
+    torques = -np.diff(w) / np.diff(t) * inertia
+    sel = t > 0.2 * t[-1]
+    slope = np.polyfit(t[sel], w[sel], 1)[0]
+    return {"torque": -float(slope) * inertia, "expected": expected, "peak_torque": float(np.max(np.abs(torques)))}

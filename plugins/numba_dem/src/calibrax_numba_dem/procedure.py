@@ -1,0 +1,315 @@
+"""The FT4 shear-test procedure on a :class:`DEMSystem`: pour, consolidate, then preshear and
+shear for every normal stress, recording the head's torque and normal force.
+
+Conventions (shared by every backend, see README): σ = F_head / (π R_head²), the force the
+particles exert on the head (disc and blades) over the head's own cross-section;
+τ = 3T / (2π R_head³) with T the torque the bed opposes to the head's rotation. Both are averaged
+over each sample interval. Rotation is counted from 0 at the start of each step.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from calibrax.core.sheartest import ShearCellSpec, StepRecord, shear_stress_from_torque
+from calibrax.errors import SimulationFailed
+
+from .contact import beta_from_restitution, effective_moduli
+from .engine import DEMSystem, make_params
+from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX,
+                     H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_WALL, P_MUR, P_MUR_BASE,
+                     P_MUR_WALL, P_USE_HEAD)
+from .packing import lattice_column
+from .servo import servo_gains
+
+#: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's)
+POUR_FRICTION = 0.1
+#: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after)
+POUR_GRAVITY = 5.0
+#: servo speed limit during the approach and consolidation, m/s
+APPROACH_SPEED = 0.2
+#: servo speed limit while settling and shearing, m/s: high enough never to act, because a limit
+#: that clips the head's response to contact spikes rectifies them and biases σ upwards
+SHEAR_SPEED_LIMIT = 1.0
+#: the fast approach stops with the blade tips this many particle diameters above the bed
+APPROACH_CLEARANCE = 0.5
+#: escape / blow-up thresholds
+MAX_SPEED = 20.0
+
+
+@dataclass
+class RunLog:
+    """A text log kept in the work directory; its tail goes into :class:`SimulationFailed`."""
+
+    logger: logging.Logger
+    lines: list[str] = field(default_factory=list)
+
+    def __call__(self, msg: str) -> None:
+        self.lines.append(msg)
+        self.logger.info(msg)
+
+    def tail(self, n: int = 40) -> str:
+        return "\n".join(self.lines[-n:])
+
+
+class ShearTestDriver:
+    """Runs one :class:`ShearCellSpec` (already validated) and collects its steps."""
+
+    def __init__(self, spec: ShearCellSpec, log: RunLog):
+        self.spec = spec
+        self.log = log
+        g, m = spec.geometry, spec.material
+        self.dt = spec.time_step
+        self.rc = g.vessel_diameter / 2.0
+        self.area = math.pi * g.head_radius**2
+        rng = np.random.default_rng(spec.numerics.seed)
+        n = spec.particle_count
+        radii = spec.size_distribution.sample(spec.radius, n, rng)
+        radii = radii[rng.permutation(n)]
+        self.r_mean = float(np.mean(radii))
+        x = lattice_column(radii, self.rc, rng)
+        v = rng.normal(0.0, 0.1, size=x.shape)
+        e_star, g_star = effective_moduli(m.youngs_modulus, m.poisson_ratio)
+        self.e_star = e_star
+        mu_b, mur_b = spec.effective_base_friction()
+        self.mu_base, self.mur_base = mu_b, mur_b
+        wall_mur = m.rolling_friction if g.wall_friction > 0 else 0.0
+        params = make_params(
+            dt=self.dt, gz=-9.81 * POUR_GRAVITY, estar=e_star, gstar=g_star,
+            beta=beta_from_restitution(m.restitution), mu=POUR_FRICTION, mur=0.0,
+            coh=m.cohesion_energy_density, use_cyl=1.0, rc=self.rc, mu_wall=min(g.wall_friction, POUR_FRICTION),
+            mur_wall=0.0, use_base=1.0, mu_base=POUR_FRICTION, mur_base=0.0, nribs=g.base_ribs,
+            rib_h=g.rib_height, use_head=0.0, head_r=g.head_radius, hub_r=g.hub_radius, blade_h=g.blade_height,
+            nblades=g.blade_count, mu_head=spec.effective_head_friction(), mur_head=m.rolling_friction)
+        self._wall_mur = wall_mur
+        self.sys = DEMSystem(x, radii, m.density, params, v=v)
+        self.z_ceiling = float(x[:, 2].max()) + 10.0 * spec.radius
+        self.steps: list[StepRecord] = []
+        self.bulk_density: list[float] = []
+        self.sigma_errors: list[float] = []
+        self.warnings: list[str] = []
+
+    # ---------------------------------------------------------------- helpers
+    @property
+    def time(self) -> float:
+        return float(self.sys.head[H_TIME])
+
+    def _check(self, phase: str) -> None:
+        s = self.sys
+        if not (np.all(np.isfinite(s.x)) and np.all(np.isfinite(s.v)) and np.isfinite(s.head[H_Z])):
+            self.log(f"t={self.time:.5f} s {phase}: NaN in the state")
+            raise SimulationFailed(f"NaN in the particle state during {phase}", self.log.tail(), kind="nan")
+        vmax = float(np.sqrt(np.max(np.sum(s.v**2, axis=1))))
+        rho = np.sqrt(s.x[:, 0] ** 2 + s.x[:, 1] ** 2)
+        out = int(np.sum((rho > self.rc + s.rad) | (s.x[:, 2] < -s.rad) | (s.x[:, 2] > self.z_ceiling)))
+        if out:
+            self.log(f"t={self.time:.5f} s {phase}: {out} particles left the cell")
+            raise SimulationFailed(f"{out} particles escaped the cell during {phase}", self.log.tail(),
+                                   kind="unstable")
+        if vmax > MAX_SPEED:
+            self.log(f"t={self.time:.5f} s {phase}: particle speed {vmax:.3g} m/s")
+            raise SimulationFailed(f"blow-up during {phase}: a particle reached {vmax:.3g} m/s",
+                                   self.log.tail(), kind="unstable")
+
+    def _run(self, duration: float, phase: str, chunk: float = 1.0e-3) -> None:
+        nsteps = int(round(duration / self.dt))
+        per = max(1, int(round(chunk / self.dt)))
+        while nsteps > 0:
+            k = min(per, nsteps)
+            self.sys.advance(k)
+            nsteps -= k
+            self._check(phase)
+
+    def bed_top(self) -> float:
+        """Height of the bed's surface, m: mean top of the 5 % highest particles."""
+        top = self.sys.x[:, 2] + self.sys.rad
+        k = max(1, int(0.05 * top.size))
+        return float(np.mean(np.sort(top)[-k:]))
+
+    # ---------------------------------------------------------------- phases
+    def pour(self) -> None:
+        """Settle the column under (boosted) gravity with low friction, then switch to the
+        material's friction and normal gravity."""
+        s = self.sys
+        h0 = float(s.x[:, 2].max())
+        h_target = self.spec.geometry.fill_height
+        t_fall = math.sqrt(2.0 * max(h0 - h_target, self.spec.radius) / (9.81 * POUR_GRAVITY))
+        self._run(1.5 * t_fall, "pour")
+        t_max = 10.0 * t_fall + 0.05
+        t_spent = 1.5 * t_fall
+        while t_spent < t_max:
+            vmax = float(np.sqrt(np.max(np.sum(s.v**2, axis=1))))
+            if vmax < 0.05:
+                break
+            self._run(2.0e-3, "pour")
+            t_spent += 2.0e-3
+        m, g = self.spec.material, self.spec.geometry
+        p = s.params
+        p[P_GZ] = -9.81
+        p[P_MU] = m.sliding_friction
+        p[P_MUR] = m.rolling_friction
+        p[P_MU_BASE] = self.mu_base
+        p[P_MUR_BASE] = self.mur_base
+        p[P_MU_WALL] = g.wall_friction
+        p[P_MUR_WALL] = self._wall_mur
+        self._run(3.0e-3, "settle")
+        self.log(f"t={self.time:.5f} s poured {s.n} particles in {t_spent:.4f} s; bed top "
+                 f"{self.bed_top() * 1e3:.2f} mm (target fill height {h_target * 1e3:.2f} mm)")
+
+    def _set_servo(self, stress: float, speed_limit: float) -> None:
+        h = self.sys.head
+        h[H_MODE] = 1.0
+        h[H_FTARGET] = stress * self.area
+        h[H_VMAX] = speed_limit
+
+    def consolidate(self) -> None:
+        """Place the head with its blade tips above the bed, then let the servo take it in,
+        turning at the rotation rate, and consolidate the bed at the preshear stress for at least
+        one preshear rotation and until the head has stopped sinking."""
+        spec, s, h = self.spec, self.sys, self.sys.head
+        g = spec.geometry
+        top = self.bed_top()
+        h[H_Z] = top + g.blade_height + APPROACH_CLEARANCE * 2.0 * spec.radius
+        self.z_ceiling = h[H_Z] + 10.0 * spec.radius
+        bed_mass = float(np.sum(s.mass))
+        mass, damp, tau = servo_gains(spec.procedure.preshear_stress, self.area, spec.radius, self.e_star,
+                                      top, bed_mass)
+        h[H_MASS], h[H_DAMP], h[H_TAU_REF] = mass, damp, tau
+        h[H_VZ] = h[H_VREF] = 0.0
+        s.params[P_USE_HEAD] = 1.0
+        self._set_servo(spec.procedure.preshear_stress, APPROACH_SPEED)
+        self.log(f"t={self.time:.5f} s head placed at {h[H_Z] * 1e3:.2f} mm (bed top {top * 1e3:.2f} mm); "
+                 f"servo mass {mass:.3g} kg, damping {damp:.3g} N s/m, tau_ref {tau:.3g} s")
+        # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
+        h[H_OMEGA] = spec.procedure.rotation_rate
+        z_prev = h[H_Z]
+        t0 = self.time
+        target = spec.procedure.preshear_stress
+        while True:
+            self._run(2.0e-3, "consolidation")
+            s.take_accumulators()
+            self._run(1.0e-3, "consolidation")
+            f, _, _, _ = s.take_accumulators()
+            sigma = f / self.area
+            moved = abs(h[H_Z] - z_prev)
+            z_prev = h[H_Z]
+            # at least one preshear rotation of turning (the blades must work their way in and the
+            # bed must compact before the first preshear is recorded), then until the head stops
+            t_min = max(0.01, spec.procedure.preshear_rotation / spec.procedure.rotation_rate)
+            if self.time - t0 > t_min and moved < 0.005 * 2 * spec.radius and abs(sigma / target - 1) < 0.05:
+                break
+            if self.time - t0 > 0.12:
+                self.warnings.append("consolidation: the head was still moving after 0.12 s")
+                break
+        h[H_OMEGA] = 0.0
+        self.log(f"t={self.time:.5f} s consolidated: head at {h[H_Z] * 1e3:.2f} mm, σ = {sigma:.0f} Pa "
+                 f"(target {target:.0f}), bulk density {self.bulk():.0f} kg/m³")
+
+    def bulk(self) -> float:
+        """Bulk density of the bed under the head, kg/m³: particle mass below the head's face over
+        the vessel volume below it."""
+        s = self.sys
+        zh = s.head[H_Z]
+        below = s.x[:, 2] < zh
+        return float(np.sum(s.mass[below]) / (math.pi * self.rc**2 * zh))
+
+    def unload_torque(self, max_rotation: float = 0.05) -> float:
+        """Relax the bed's residual shear after a rotation, as a shear tester does before it changes
+        the normal stress: turn the head back at the rotation rate (under the current σ) until the
+        torque, averaged over 0.2 ms, has fallen to zero; at most ``max_rotation`` rad.
+
+        Returns the rotation it took, rad.
+        """
+        s, h = self.sys, self.sys.head
+        rate = self.spec.procedure.rotation_rate
+        chunk = max(1, int(round(2.0e-4 / self.dt)))
+        phi0 = h[H_PHI]
+        h[H_OMEGA] = -rate
+        s.take_accumulators()
+        while phi0 - h[H_PHI] < max_rotation:
+            s.advance(chunk)
+            _, torque, _, _ = s.take_accumulators()
+            if torque <= 0.0:
+                break
+        h[H_OMEGA] = 0.0
+        self._check("torque unload")
+        return float(phi0 - h[H_PHI])
+
+    def settle(self, stress: float) -> None:
+        """Unload the residual torque, then hold ``stress`` without rotating for
+        ``procedure.settle_time`` so that σ has settled before the rotation restarts."""
+        back = self.unload_torque()
+        self._set_servo(stress, SHEAR_SPEED_LIMIT)
+        self._run(self.spec.procedure.settle_time, "settle")
+        s = self.sys
+        s.take_accumulators()
+        self._run(min(self.spec.numerics.sample_interval, self.spec.procedure.settle_time), "settle")
+        f, torque, _, _ = s.take_accumulators()
+        self.log(f"t={self.time:.5f} s settled at {stress:.0f} Pa after turning back {back:.4f} rad: "
+                 f"σ = {f / self.area:.0f} Pa, τ = "
+                 f"{float(shear_stress_from_torque(torque, self.spec.geometry.head_radius)):.0f} Pa")
+
+    def rotate(self, kind: str, stress: float, rotation: float) -> StepRecord:
+        """Rotate the head by ``rotation`` rad at the procedure's rate under ``stress``; record."""
+        spec, s, h = self.spec, self.sys, self.sys.head
+        self._set_servo(stress, SHEAR_SPEED_LIMIT)
+        rate = spec.procedure.rotation_rate
+        h[H_OMEGA] = rate
+        phi0 = h[H_PHI]
+        per = max(1, int(round(spec.numerics.sample_interval / self.dt)))
+        nsamples = max(2, int(math.ceil(rotation / rate / (per * self.dt))))
+        rec = np.empty((5, nsamples))
+        s.take_accumulators()
+        for k in range(nsamples):
+            s.advance(per)
+            f, torque, _, _ = s.take_accumulators()
+            rec[0, k] = self.time
+            rec[1, k] = h[H_PHI] - phi0
+            rec[2, k] = float(shear_stress_from_torque(torque, spec.geometry.head_radius))
+            rec[3, k] = f / self.area
+            rec[4, k] = h[H_Z]
+            if k % 20 == 0:
+                self._check(kind)
+        self._check(kind)
+        h[H_OMEGA] = 0.0
+        step = StepRecord(kind=kind, target_stress=stress, time=rec[0], rotation=rec[1], shear_stress=rec[2],
+                          normal_stress=rec[3], bed_height=rec[4])
+        err = float(np.mean(rec[3]) / stress - 1.0)
+        self.sigma_errors.append(err)
+        self.log(f"t={self.time:.5f} s {kind} at {stress:.0f} Pa: mean σ {np.mean(rec[3]):.0f} Pa "
+                 f"({100 * err:+.1f} %), σ sd {np.std(rec[3]):.0f} Pa, τ max {np.max(rec[2]):.0f} Pa, "
+                 f"τ end {np.mean(rec[2][-max(1, nsamples // 5):]):.0f} Pa, head {h[H_Z] * 1e3:.2f} mm")
+        return step
+
+    def run(self) -> None:
+        """The whole test."""
+        p = self.spec.procedure
+        self.pour()
+        self.consolidate()
+        for k, sigma in enumerate(p.shear_stresses):
+            if k > 0:
+                self.settle(p.preshear_stress)
+            self.steps.append(self.rotate("preshear", p.preshear_stress, p.preshear_rotation))
+            self.bulk_density.append(self.bulk())
+            self.settle(sigma)
+            self.steps.append(self.rotate("shear", sigma, p.shear_rotation))
+        bad = [e for e in self.sigma_errors if abs(e) > 0.05]
+        if bad:
+            self.warnings.append(f"the servo held σ within 5 % of its target in only "
+                                 f"{len(self.sigma_errors) - len(bad)} of {len(self.sigma_errors)} steps "
+                                 f"(worst {100 * max(bad, key=abs):+.1f} %)")
+
+
+def new_logger(path) -> logging.Logger:
+    """A logger writing to ``path`` only (no propagation to the root logger)."""
+    logger = logging.getLogger(f"calibrax_numba_dem.run.{id(path)}.{time.time_ns()}")
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+    handler = logging.FileHandler(path, mode="w", encoding="utf-8")
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    logger.addHandler(handler)
+    return logger

@@ -1,0 +1,68 @@
+"""The shear head's vertical motion: prescribed velocity, or a stress servo.
+
+The servo treats the head as a rigid body of mass M under the target load F* (downward) and the
+particles' upward force F_p, with a damper that acts only on the *fast* part of its motion:
+
+    M dv/dt = F_p − F* − c (v − v_ref),    dv_ref/dt = (v − v_ref) / τ_ref,    |v| ≤ v_max.
+
+Because the damper pushes against v − v_ref rather than v, a steady drift (the bed dilating or
+compacting under shear) costs no force, so the time-averaged F_p equals F* (Newton), while the
+head–bed oscillation (period 2π√(M/k_bed)) is damped. This is the "head as a rigid body under the
+target load with its own mass and damping" of DESIGN §3, which a proportional velocity servo is
+not. The speed limit keeps the approach gentle (the head is never driven blindly into the bed).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_VCMD,
+                     H_VMAX, H_VREF, H_VZ, H_Z)
+
+
+@njit(cache=True)
+def head_drift(head, dt):
+    """Advance the head's height and angle by one step, s."""
+    head[H_Z] += head[H_VZ] * dt
+    head[H_PHI] += head[H_OMEGA] * dt
+
+
+@njit(cache=True)
+def head_kick(head, f_up, dt):
+    """Update the head's vertical velocity from the particles' upward force ``f_up`` (N)."""
+    if head[H_MODE] < 0.5:
+        head[H_VZ] = head[H_VCMD]
+        head[H_VREF] = head[H_VCMD]
+        return
+    v = head[H_VZ]
+    acc = (f_up - head[H_FTARGET] - head[H_DAMP] * (v - head[H_VREF])) / head[H_MASS]
+    v += acc * dt
+    vmax = head[H_VMAX]
+    if v > vmax:
+        v = vmax
+    elif v < -vmax:
+        v = -vmax
+    head[H_VZ] = v
+    head[H_VREF] += (v - head[H_VREF]) * min(1.0, dt / head[H_TAU_REF])
+
+
+def servo_gains(stress: float, area: float, radius: float, e_star: float, bed_height: float,
+                bed_mass: float, damping_ratio: float = 1.0) -> tuple[float, float, float]:
+    """Servo mass (kg), damping (N·s/m) and v_ref time constant (s) for a bed under ``stress``.
+
+    The bed's vertical stiffness is estimated as columns of Hertz contacts: a contact carrying
+    f = σ (2R)² has tangent stiffness k_c = 2E*√(R* δ) (R* = R/2), and A/(2R)² columns of
+    H/(2R) contacts in series give k_bed = k_c A / (2R H). The head's mass is the bed's mass, its
+    damping ``damping_ratio`` of critical on k_bed, τ_ref five head–bed periods.
+    """
+    f = stress * (2.0 * radius) ** 2
+    reff = radius / 2.0
+    delta = (f / (4.0 / 3.0 * e_star * math.sqrt(reff))) ** (2.0 / 3.0)
+    k_c = 2.0 * e_star * math.sqrt(reff * delta)
+    k_bed = k_c * area / (2.0 * radius * bed_height)
+    mass = bed_mass
+    damp = 2.0 * damping_ratio * math.sqrt(k_bed * mass)
+    period = 2.0 * math.pi * math.sqrt(mass / k_bed)
+    return mass, damp, 5.0 * period

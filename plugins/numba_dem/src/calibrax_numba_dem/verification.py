@@ -1,0 +1,177 @@
+"""Small, self-contained verification cases of the contact laws and boundaries.
+
+Each function builds a tiny :class:`~calibrax_numba_dem.engine.DEMSystem`, runs it with the same
+kernels the shear test uses, and returns what it measured next to the theory, as a plain dict, so
+that tests (and a cross-check command on every backend) can compare them. SI units throughout.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .contact import beta_from_restitution, effective_moduli
+from .engine import DEMSystem, make_params, numba_threads
+
+__all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
+           "resting_bed_base_load"]
+
+
+def hertz_contact_time(radius: float, youngs_modulus: float, poisson_ratio: float, density: float,
+                       speed: float) -> float:
+    """Duration of an elastic Hertz impact of two equal spheres at relative speed ``speed`` (m/s):
+    t_c = 2.87 (m*² / (R* E*² v))^(1/5), s."""
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
+    return 2.87 * ((m / 2.0) ** 2 / (radius / 2.0 * e_star**2 * speed)) ** 0.2
+
+
+def _params(youngs_modulus: float, poisson_ratio: float, restitution: float, dt: float, **extra: float) -> np.ndarray:
+    e_star, g_star = effective_moduli(youngs_modulus, poisson_ratio)
+    return make_params(dt=dt, estar=e_star, gstar=g_star, beta=beta_from_restitution(restitution), **extra)
+
+
+def _two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
+                         youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                         steps_per_contact: int = 500) -> dict[str, float]:
+    """Head-on impact of two equal spheres at relative speed ``speed`` (m/s), no gravity.
+
+    Returns:
+        dict with ``contact_time`` (s, measured), ``hertz_contact_time`` (s, theory for e = 1),
+        ``restitution`` (measured −v_rel,out / v_rel,in), ``energy_change`` ((KE_out − KE_in)/KE_in)
+        and ``dt`` (s).
+    """
+    t_c = hertz_contact_time(radius, youngs_modulus, poisson_ratio, density, speed)
+    dt = t_c / steps_per_contact
+    gap = 0.1 * speed * t_c
+    x = np.array([[-radius - gap, 0.0, 0.0], [radius + gap, 0.0, 0.0]])
+    v = np.array([[0.5 * speed, 0.0, 0.0], [-0.5 * speed, 0.0, 0.0]])
+    sys = DEMSystem(x, np.full(2, radius), density, _params(youngs_modulus, poisson_ratio, restitution, dt,
+                                                             mu=0.5, mur=0.0), v=v)
+    ke0 = sys.kinetic_energy()
+    in_contact = 0
+    touched = False
+    for _ in range(20 * steps_per_contact):
+        sys.advance(1)
+        overlap = 2.0 * radius - (sys.x[1, 0] - sys.x[0, 0])
+        if overlap > 0.0:
+            in_contact += 1
+            touched = True
+        elif touched:
+            break
+    v_out = sys.v[1, 0] - sys.v[0, 0]
+    return {"contact_time": in_contact * dt, "hertz_contact_time": t_c, "restitution": v_out / speed,
+            "energy_change": (sys.kinetic_energy() - ke0) / ke0, "dt": dt}
+
+
+def _rest_overlap(radius: float, mass: float, e_star: float, g: float) -> float:
+    return (mass * g / (4.0 / 3.0 * e_star * math.sqrt(radius))) ** (2.0 / 3.0)
+
+
+def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 0.9e-3,
+                    youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                    restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6) -> dict[str, float]:
+    """A sphere launched without spin along a flat base of friction ``friction``.
+
+    While it slides, the Coulomb force decelerates it at μs·g. Returns ``deceleration`` (m/s²,
+    least-squares slope of v(t) over the middle 80 % of the sliding phase), ``expected`` (μs·g)
+    and ``sliding_time`` (s, theory 2 v0 / (7 μs g)).
+    """
+    e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    z0 = radius - _rest_overlap(radius, m, e_star, g)
+    sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
+                    _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
+                            mu_base=friction, mu=friction), v=np.array([[speed, 0.0, 0.0]]))
+    t_slide = 2.0 * speed / (7.0 * friction * g)
+    chunk = max(1, int(t_slide / dt / 200))
+    ts, vs = [], []
+    t = 0.0
+    while t < t_slide:
+        sys.advance(chunk)
+        t += chunk * dt
+        ts.append(t)
+        vs.append(sys.v[0, 0])
+    ts_a, vs_a = np.asarray(ts), np.asarray(vs)
+    sel = (ts_a > 0.1 * t_slide) & (ts_a < 0.9 * t_slide)
+    slope = np.polyfit(ts_a[sel], vs_a[sel], 1)[0]
+    return {"deceleration": -float(slope), "expected": friction * g, "sliding_time": t_slide}
+
+
+def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius: float = 0.9e-3,
+                       youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
+                       restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6) -> dict[str, float]:
+    """A sphere spinning about a horizontal axis on a base without sliding friction, with EPSD2
+    rolling resistance ``rolling_friction``.
+
+    Its rolling torque saturates at μr·R*·Fn (R* = R for a wall, Fn = mg), so ω falls linearly.
+    Returns ``torque`` (N·m, I·|dω/dt| over the saturated phase), ``expected`` (μr R m g),
+    ``peak_torque`` (N·m, largest I·|Δω/Δt| seen step to step).
+    """
+    e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    inertia = 0.4 * m * radius**2
+    z0 = radius - _rest_overlap(radius, m, e_star, g)
+    sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
+                    _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
+                            mu_base=0.0, mur_base=rolling_friction))
+    sys.w[0, 0] = spin
+    expected = rolling_friction * radius * m * g
+    t_stop = spin * inertia / expected
+    nsteps = int(0.8 * t_stop / dt)
+    ws = np.empty(nsteps)
+    for k in range(nsteps):
+        sys.advance(1)
+        ws[k] = sys.w[0, 0]
+    torques = -np.diff(ws) / dt * inertia
+    sel = slice(int(0.2 * nsteps), None)
+    slope = np.polyfit(np.arange(nsteps)[sel] * dt, ws[sel], 1)[0]
+    return {"torque": -float(slope) * inertia, "expected": expected, "peak_torque": float(np.max(np.abs(torques)))}
+
+
+def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius: float = 0.9e-3,
+                          cell_diameters: float = 8.0, youngs_modulus: float = 25e9, poisson_ratio: float = 0.25,
+                          density: float = 3000.0, restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6,
+                          settle_time: float = 0.06, average_time: float = 0.01, seed: int = 0) -> dict[str, float]:
+    """A bed poured into a cylinder with a frictionless wall *and* a frictionless base.
+
+    Neither wall can carry shear, so at rest the base carries the bed's full weight. The bed
+    settles for at least ``settle_time`` and until no particle moves faster than 1 mm/s. Returns
+    ``base_force`` (N, time-averaged over the last ``average_time``), ``weight`` (N, Σ m g) and
+    ``kinetic_energy`` (J, at the end).
+    """
+    from .packing import lattice_column
+
+    rc = 0.5 * cell_diameters * 2.0 * radius
+    rng = np.random.default_rng(seed)
+    x = lattice_column(np.full(n_particles, radius), rc, rng)
+    sys = DEMSystem(x, np.full(n_particles, radius), density,
+                    _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, mu=friction, use_base=1.0,
+                            use_cyl=1.0, rc=rc))
+    t = 0.0
+    while t < settle_time or (t < 10 * settle_time and np.sqrt(np.max(np.sum(sys.v**2, axis=1))) > 1e-3):
+        sys.advance(int(0.005 / dt))
+        t += 0.005
+    sys.take_accumulators()
+    sys.advance(int(average_time / dt))
+    _, _, base, _ = sys.take_accumulators()
+    return {"base_force": base, "weight": float(np.sum(sys.mass) * g), "kinetic_energy": sys.kinetic_energy()}
+
+
+def _threaded(impl):
+    import functools
+
+    @functools.wraps(impl)
+    def run(*args, threads: int = 1, **kwargs):
+        with numba_threads(threads):
+            return impl(*args, **kwargs)
+    run.__name__ = impl.__name__.lstrip("_")
+    run.__qualname__ = run.__name__
+    return run
+
+
+two_sphere_collision = _threaded(_two_sphere_collision)
+sliding_on_base = _threaded(_sliding_on_base)
+rolling_resistance = _threaded(_rolling_resistance)
+resting_bed_base_load = _threaded(_resting_bed_base_load)

@@ -1,0 +1,199 @@
+"""The ``yade`` Simulator: the FT4 shear test run by the Debian ``yade`` binary.
+
+Contact law: YADE's ``Ip2_FrictMat_FrictMat_MindlinPhys`` (restitution-based damping ``en``,
+constant rolling stiffness ``krot``, rolling limit ``eta``) with
+``Law2_ScGeom_MindlinPhys_Mindlin(includeMoment=True)``, its parameters converted so that they
+reproduce LIGGGHTS' ``hertz`` + ``tangential history`` + ``rolling_friction epsd2`` (see
+:mod:`calibrax_yade.contact` for the mapping). Remaining differences from LIGGGHTS / numba_dem:
+
+1. tangential damping c_s = c_n (≈ 8 % above LIGGGHTS' γ_t at ν = 0.25), dropped while sliding;
+2. the damped normal force is meant to be clipped at zero (LIGGGHTS: not; no effect measured on e);
+3. the rolling stiffness k_r is a constant (EPSD2's value at the preshear stress's Hertz overlap);
+4. one rolling coefficient for every contact: exact (μr R*) for equal spheres; 0.75 μr r against
+   facets (LIGGGHTS μr r), also against the frictionless lateral wall (numba_dem: none there);
+   unequal spheres get a limit (r_i + r_j)²/(4 r_i r_j) times larger;
+5. the cell is made of facets (polygonal vessel, fan-disc base and head), the facets carrying a
+   fictitious material (ν_w = ν, E_w ≈ 1.58 E) that restores LIGGGHTS' wall stiffnesses exactly
+   (YADE's facet contact uses R = 2r/3); the base is one large facet (no inner edges);
+6. the servo's v_ref is low-passed over one head–bed period (numba_dem: five), which makes the
+   mean σ of short windows less biased by the bed's dilation; no SJKR cohesion (YADE's Mindlin
+   adhesion is DMT, a different law), so ``cohesion`` is refused, and a base rolling friction
+   different from the particles' is refused.
+
+Geometry, packing (same seed → same initial particles), procedure and the σ/τ/bed-height
+conventions are numba_dem's (see the package README).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+from calibrax.core.sheartest import (Provenance, ShearCellSpec, ShearTestResult, StepRecord,
+                                     shear_stress_from_torque)
+from calibrax.errors import SimulationFailed, SpecError
+
+from . import __version__
+from .contact import contact_params
+from .geometry import base_mesh, head_mesh, initial_state, ribs_mesh, vessel_mesh
+from .runner import find_yade, run_yade, script_path, write_params, yade_version
+
+__all__ = ["YadeSimulator", "build_params", "SERVO_SUBSTEPS"]
+
+#: friction while pouring and gravity multiplier (DESIGN §3: pour with low friction, then switch)
+POUR_FRICTION = 0.1
+POUR_GRAVITY = 3.0
+#: servo speed limits (m/s), approach clearance (particle diameters), blow-up speed (m/s): numba_dem's
+APPROACH_SPEED = 0.2
+SHEAR_SPEED_LIMIT = 0.05
+APPROACH_CLEARANCE = 0.5
+MAX_SPEED = 20.0
+#: the head's servo is updated, and force/torque sampled, every this many time steps
+SERVO_SUBSTEPS = 1
+#: default timeout of one YADE run, s (override with $CALIBRAX_YADE_TIMEOUT or the constructor)
+DEFAULT_TIMEOUT = 6 * 3600.0
+
+
+def _flat(tris: np.ndarray) -> list[float]:
+    return [float(v) for v in np.asarray(tris, dtype=float).reshape(-1)]
+
+
+def build_params(spec: ShearCellSpec) -> dict:
+    """Every number the YADE script needs (SI units), from a validated spec."""
+    g, m, p = spec.geometry, spec.material, spec.procedure
+    cp = contact_params(spec)
+    radii, x, v = initial_state(spec)
+    rc = g.vessel_diameter / 2.0
+    r_ref = float(np.min(radii))
+    z_top = float(max(x[:, 2].max(), g.fill_height)) + 12.0 * float(radii.max()) + g.blade_height
+    disc, blades = head_mesh(g.head_radius, g.hub_radius, g.blade_count, g.blade_height, r_ref)
+    mu_b, _ = spec.effective_base_friction()
+    return {
+        "dt": spec.time_step, "gravity": 9.81, "pour_gravity": POUR_GRAVITY, "pour_friction": POUR_FRICTION,
+        "density": m.density, "radius": spec.radius, "young": cp.young, "poisson": cp.poisson,
+        "facet_young": cp.facet_young, "facet_poisson": cp.facet_poisson, "restitution": cp.restitution,
+        "krot": cp.krot, "eta": cp.eta, "e_star": cp.e_star,
+        "friction": m.sliding_friction, "wall_friction": g.wall_friction, "base_friction": mu_b,
+        "head_friction": spec.effective_head_friction(),
+        "vessel_radius": rc, "head_radius": g.head_radius, "blade_height": g.blade_height,
+        "fill_height": g.fill_height,
+        "vessel_facets": _flat(vessel_mesh(rc, z_top, r_ref)), "base_facets": _flat(base_mesh(rc, r_ref)),
+        "rib_facets": _flat(ribs_mesh(rc, g.base_ribs, g.rib_height, r_ref)),
+        "head_disc_facets": _flat(disc), "head_blade_facets": _flat(blades),
+        "radii": [float(r) for r in radii], "positions": _flat(x), "velocities": _flat(v),
+        "preshear_stress": p.preshear_stress, "shear_stresses": [float(s) for s in p.shear_stresses],
+        "rotation_rate": p.rotation_rate, "preshear_rotation": p.preshear_rotation,
+        "shear_rotation": p.shear_rotation, "settle_time": p.settle_time,
+        "sample_interval": spec.numerics.sample_interval, "servo_substeps": SERVO_SUBSTEPS,
+        "approach_speed": APPROACH_SPEED, "shear_speed_limit": SHEAR_SPEED_LIMIT,
+        "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED,
+    }
+
+
+def _array(rec: dict, key: str, n: int) -> np.ndarray:
+    a = np.asarray(rec.get(key, []), dtype=float)
+    if a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"channel {key!r} has shape {a.shape} or non-finite values")
+    return a
+
+
+class YadeSimulator:
+    """The FT4 shear test in YADE (see the module docstring and the package README).
+
+    Args:
+        executable: the yade binary (default: $CALIBRAX_YADE, else ``yade`` on PATH).
+        timeout: wall-clock limit of one run, s (default: $CALIBRAX_YADE_TIMEOUT, else 6 h).
+
+    ``simulate`` writes, under ``workdir`` only: ``params.json`` (validated numbers), the engine's
+    ``ft4_shear.log`` and ``yade_stdout.log``, and ``result.json`` (or ``failure.json``).
+    """
+
+    name = "yade"
+
+    def __init__(self, executable: str | None = None, timeout: float | None = None) -> None:
+        self.executable = executable
+        env_timeout = os.environ.get("CALIBRAX_YADE_TIMEOUT")
+        self.timeout = float(timeout if timeout is not None else (env_timeout or DEFAULT_TIMEOUT))
+
+    def capabilities(self) -> frozenset[str]:
+        """Wall friction (facet friction), size distributions, base ribs (facets), rolling
+        friction. Not cohesion: YADE's Mindlin adhesion (DMT) is not LIGGGHTS' SJKR."""
+        return frozenset({"wall_friction", "size_distribution", "base_ribs", "rolling_friction"})
+
+    def version(self) -> str:
+        """``"YADE <version>"`` of the binary that would run (raises EngineNotFound if none)."""
+        return yade_version(find_yade(self.executable))
+
+    def _refuse(self, spec: ShearCellSpec) -> None:
+        from calibrax.core.simulator import check_capabilities
+
+        check_capabilities(self, spec)
+        g, m = spec.geometry, spec.material
+        if g.base_rolling_friction is not None and g.base_rolling_friction != m.rolling_friction:
+            raise SpecError("geometry.base_rolling_friction",
+                            "the yade backend uses one rolling-friction coefficient for every contact; "
+                            f"leave it unset or equal to material.rolling_friction ({m.rolling_friction})")
+
+    def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
+        """Run the whole test and return its result.
+
+        Raises:
+            SpecError / ConfigError: an invalid spec or an effect YADE cannot model, before any
+                file is written.
+            EngineNotFound: no yade binary.
+            SimulationFailed: crash, NaN, blow-up, timeout (with the log tail).
+        """
+        spec.validate()
+        self._refuse(spec)
+        params = build_params(spec)
+        from .runner import check_numbers
+
+        check_numbers(params)  # before anything touches the disk
+        yade = find_yade(self.executable)
+        workdir = Path(workdir).resolve()
+        workdir.mkdir(parents=True, exist_ok=True)
+        for stale in ("result.json", "failure.json"):
+            (workdir / stale).unlink(missing_ok=True)
+        params_path = write_params(workdir / "params.json", params)
+        threads = spec.numerics.threads
+        t0 = time.perf_counter()
+        log = workdir / "ft4_shear.log"
+        run_yade(yade, script_path("ft4_shear.py"), params_path, workdir, threads, self.timeout, logs=(log,))
+        wall = time.perf_counter() - t0
+        return self._parse(spec, workdir, wall, threads)
+
+    def _parse(self, spec: ShearCellSpec, workdir: Path, wall: float, threads: int) -> ShearTestResult:
+        from .runner import log_tail
+
+        log = workdir / "ft4_shear.log"
+        try:
+            out = json.loads((workdir / "result.json").read_text())
+            steps = []
+            area = math.pi * spec.geometry.head_radius**2
+            for rec in out["steps"]:
+                n = len(rec["time"])
+                force = _array(rec, "force", n)
+                torque = _array(rec, "torque", n)
+                steps.append(StepRecord(
+                    kind=str(rec["kind"]), target_stress=float(rec["target_stress"]), time=_array(rec, "time", n),
+                    rotation=_array(rec, "rotation", n),
+                    shear_stress=np.asarray(shear_stress_from_torque(torque, spec.geometry.head_radius), dtype=float),
+                    normal_stress=force / area, bed_height=_array(rec, "head_height", n)))
+            bulk = [float(b) for b in out["bulk_density"]]
+            if len([s for s in steps if s.kind == "shear"]) != len(spec.procedure.shear_stresses):
+                raise ValueError("missing shear steps")
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise SimulationFailed(f"unreadable YADE output: {exc}", log_tail(log, workdir / "yade_stdout.log"),
+                                   kind="crash") from exc
+        version = "YADE " + str(out.get("yade_version", "?"))
+        prov = Provenance(backend=self.name, engine_version=f"{version} (calibrax-yade {__version__})",
+                          spec_hash=spec.spec_hash(), seed=spec.numerics.seed, wall_time=wall,
+                          particle_count=int(out["particles"]), threads=threads,
+                          extra={"time_step": spec.time_step, "simulated_time": out.get("simulated_time"),
+                                 "servo_sigma_errors": out.get("sigma_errors", []),
+                                 "stress_area": "pi*head_radius**2", "servo_substeps": SERVO_SUBSTEPS})
+        return ShearTestResult.from_steps(spec, steps, bulk, prov, list(out.get("warnings", [])))

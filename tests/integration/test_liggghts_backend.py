@@ -1,0 +1,215 @@
+"""The LIGGGHTS backend against the real ``liggghts`` binary (no mocks): contact law, meshes,
+input validation, a missing engine, and one short shear test shared by several assertions."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from calibrax.core.sheartest import ShearCellSpec
+from calibrax.errors import ConfigError, EngineNotFound, SimulationFailed, SpecError
+
+from calibrax_liggghts import LiggghtsSimulator
+from calibrax_liggghts import mesh as meshes
+from calibrax_liggghts.script import num, write_inputs
+from calibrax_liggghts.verification import rolling_resistance, sliding_on_base, two_sphere_collision
+
+
+def short_tiny_spec(**overrides) -> ShearCellSpec:
+    """The ``tiny`` preset (577 particles, 20 ms per rotation): about 100 s on one core."""
+    return ShearCellSpec.preset("tiny").replace(**overrides) if overrides else ShearCellSpec.preset("tiny")
+
+
+@pytest.fixture(scope="module")
+def shear_run(tmp_path_factory):
+    """One short tiny shear test on LIGGGHTS, shared by the assertions below."""
+    workdir = tmp_path_factory.mktemp("liggghts_shear")
+    spec = short_tiny_spec()
+    result = LiggghtsSimulator().simulate(spec, workdir)
+    return spec, result, workdir
+
+
+# ----------------------------------------------------------------------------- contact law
+def test_two_sphere_elastic_collision_matches_hertz():
+    out = two_sphere_collision(speed=0.5, restitution=1.0)
+    assert out["contact_time"] == pytest.approx(out["hertz_contact_time"], rel=0.02)
+    assert out["restitution"] == pytest.approx(1.0, rel=0.02)
+    assert abs(out["energy_change"]) < 0.02
+
+
+def test_two_sphere_damped_collision_restitution():
+    out = two_sphere_collision(speed=0.5, restitution=0.5)
+    assert out["restitution"] == pytest.approx(0.5, rel=0.02)
+
+
+def test_sliding_on_the_base_mesh_decelerates_at_mu_g():
+    out = sliding_on_base(friction=0.5)
+    assert out["deceleration"] == pytest.approx(out["expected"], rel=0.02)
+
+
+def test_epsd2_rolling_torque_on_the_base_mesh_saturates_at_mu_r_r_m_g():
+    out = rolling_resistance(rolling_friction=0.5)
+    assert out["torque"] == pytest.approx(out["expected"], rel=0.02)
+    assert out["peak_torque"] <= 1.05 * out["expected"]
+
+
+# ----------------------------------------------------------------------------- shear test
+def test_shear_test_gives_four_finite_peaks_and_a_positive_aif(shear_run):
+    spec, result, _ = shear_run
+    assert result.peak_shear_stress.shape == (4,)
+    assert result.is_finite()
+    assert np.all(result.peak_shear_stress > 0)
+    locus = result.yield_locus("target")
+    assert math.isfinite(locus.cohesion) and math.isfinite(locus.aif_deg)
+    assert locus.aif_deg > 0
+    assert result.provenance.backend == "liggghts"
+    assert result.provenance.engine_version.startswith("LIGGGHTS")
+    assert result.provenance.particle_count == spec.particle_count
+
+
+def test_shear_test_time_series_follow_the_conventions(shear_run):
+    spec, result, _ = shear_run
+    assert [s.kind for s in result.steps] == ["preshear", "shear"] * 4
+    for s in result.steps:
+        for ch in s.CHANNELS:
+            assert np.all(np.isfinite(getattr(s, ch)))
+        assert s.rotation[0] > 0 and s.rotation[-1] == pytest.approx(
+            spec.procedure.preshear_rotation if s.kind == "preshear" else spec.procedure.shear_rotation,
+            abs=spec.procedure.rotation_rate * spec.numerics.sample_interval * 1.01)
+        assert np.all(np.diff(s.time) > 0)
+        # the head's face sits below the fill height reached by the consolidated bed, above the blades
+        assert np.all(s.bed_height > spec.geometry.blade_height)
+        # the servo holds σ near its target over the step (mean within 15 % on this tiny, noisy bed)
+        assert np.mean(s.normal_stress) == pytest.approx(s.target_stress, rel=0.15)
+    assert np.all((result.bulk_density > 1000) & (result.bulk_density < spec.material.density))
+
+
+def test_written_meshes_pass_the_stl_checker(shear_run):
+    _, _, workdir = shear_run
+    files = sorted(Path(workdir).glob("*.stl"))
+    assert {f.name for f in files} >= {"base.stl", "vessel.stl", "head.stl"}
+    for f in files:
+        report = meshes.check_stl(f)
+        assert report["triangles"] > 0
+
+
+# ----------------------------------------------------------------------------- meshes
+def test_stl_checker_accepts_cell_meshes_with_ribs(tmp_path):
+    spec = short_tiny_spec(geometry={"base_ribs": 6})
+    write_inputs(spec.validate(), tmp_path)
+    for name in ("base", "ribs", "vessel", "head"):
+        meshes.check_stl(tmp_path / f"{name}.stl")
+
+
+def test_stl_checker_rejects_an_edge_shared_by_three_triangles(tmp_path):
+    a, b = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]
+    tris = np.array([[a, b, [0.5, 1.0, 0.0]], [a, b, [0.5, -1.0, 0.0]], [a, b, [0.5, 0.0, 1.0]]])
+    meshes.write_stl(tmp_path / "bad.stl", tris, "bad")
+    with pytest.raises(meshes.MeshError, match="more than two"):
+        meshes.check_stl(tmp_path / "bad.stl")
+
+
+def test_stl_checker_rejects_degenerate_and_malformed(tmp_path):
+    tris = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]])
+    meshes.write_stl(tmp_path / "flat.stl", tris, "flat")
+    with pytest.raises(meshes.MeshError, match="degenerate"):
+        meshes.check_stl(tmp_path / "flat.stl")
+    (tmp_path / "junk.stl").write_text("hello\n")
+    with pytest.raises(meshes.MeshError):
+        meshes.check_stl(tmp_path / "junk.stl")
+
+
+# ----------------------------------------------------------------------------- input safety
+@pytest.mark.parametrize("material", [
+    {"youngs_modulus": "1e9\nshell rm -rf /"},
+    {"density": float("nan")},
+    {"sliding_friction": float("inf")},
+])
+def test_injected_or_non_finite_values_are_rejected_before_any_file(tmp_path, material):
+    spec = short_tiny_spec(material=material)
+    workdir = tmp_path / "run"
+    with pytest.raises(SpecError):
+        LiggghtsSimulator().simulate(spec, workdir)
+    assert not workdir.exists()
+
+
+def test_number_formatter_refuses_text_and_nan():
+    assert num(1.5) == "1.5"
+    for bad in ("1; run 10", float("nan"), float("-inf"), True, None):
+        with pytest.raises(SpecError):
+            num(bad, "x")
+
+
+def test_unsupported_capability_is_refused(tmp_path):
+    class Limited(LiggghtsSimulator):
+        def capabilities(self):
+            return frozenset({"rolling_friction"})
+
+    spec = short_tiny_spec(material={"cohesion_energy_density": 1.0e5})
+    with pytest.raises(ConfigError, match="cohesion"):
+        Limited().simulate(spec, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+# ----------------------------------------------------------------------------- engine
+def test_missing_binary_raises_engine_not_found_with_install_hint(tmp_path, monkeypatch):
+    monkeypatch.setenv("PATH", str(tmp_path))  # a PATH without liggghts
+    with pytest.raises(EngineNotFound, match="apt-get install -y liggghts"):
+        LiggghtsSimulator().simulate(short_tiny_spec(), tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_engine_error_becomes_simulation_failed_with_log_tail(tmp_path):
+    from calibrax_liggghts.simulator import run_liggghts
+
+    (tmp_path / "in.bad").write_text("units si\nthis_is_not_a_command 1\n")
+    with pytest.raises(SimulationFailed) as info:
+        run_liggghts(tmp_path, script="in.bad", timeout_s=60)
+    assert "ERROR" in info.value.log_tail
+    assert info.value.kind == "crash"
+
+
+def test_timeout_becomes_simulation_failed(tmp_path):
+    from calibrax_liggghts.simulator import run_liggghts
+
+    spec = short_tiny_spec()
+    write_inputs(spec.validate(), tmp_path)
+    with pytest.raises(SimulationFailed) as info:
+        run_liggghts(tmp_path, timeout_s=2)
+    assert info.value.kind == "timeout"
+
+
+def test_plugin_is_registered():
+    from importlib.metadata import entry_points
+
+    names = {ep.name for ep in entry_points(group="calibrax")}
+    assert "liggghts" in names
+    from calibrax_liggghts.plugin import calibrax_simulators
+
+    assert calibrax_simulators() == [LiggghtsSimulator]
+    assert LiggghtsSimulator().name == "liggghts"
+    assert os.path.basename(__file__).startswith("test_liggghts_")
+
+
+def test_every_capability_writes_a_script_liggghts_accepts(tmp_path):
+    """Cohesion (sjkr), base ribs, a lognormal size distribution and wall friction together: the
+    engine reads the whole set-up and starts pouring without an input error (stopped by a short
+    timeout, as the full test is not the point here)."""
+    from calibrax_liggghts.simulator import run_liggghts
+
+    spec = short_tiny_spec(material={"cohesion_energy_density": 2.0e5},
+                           geometry={"base_ribs": 6, "wall_friction": 0.3},
+                           size_distribution={"kind": "lognormal", "sigma_log": 0.15})
+    assert LiggghtsSimulator().capabilities() >= {"cohesion", "base_ribs", "size_distribution", "wall_friction"}
+    write_inputs(spec.validate(), tmp_path)
+    script = (tmp_path / "in.calibrax").read_text()
+    assert "cohesion sjkr" in script and "ribs.stl" in script
+    with pytest.raises(SimulationFailed) as info:
+        run_liggghts(tmp_path, timeout_s=12)
+    assert info.value.kind == "timeout", info.value.log_tail
+    screen = (tmp_path / "screen.liggghts").read_text()
+    assert "ERROR" not in screen
+    assert "CALIBRAX start particles" in screen

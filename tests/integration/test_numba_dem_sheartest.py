@@ -1,0 +1,93 @@
+"""numba_dem runs the whole FT4 shear test (the ``tiny`` preset, real engine)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from calibrax.core.sheartest import Material, ShearCellSpec
+from calibrax.errors import SpecError
+from calibrax_numba_dem import NumbaDEMSimulator
+from calibrax_numba_dem.plugin import calibrax_simulators
+
+
+@pytest.fixture(scope="module")
+def tiny_result(tmp_path_factory):
+    spec = ShearCellSpec.preset("tiny")
+    return spec, NumbaDEMSimulator().simulate(spec, tmp_path_factory.mktemp("tiny"))
+
+
+@pytest.fixture(scope="module")
+def tiny_high_friction(tmp_path_factory):
+    spec = ShearCellSpec.preset("tiny", material=Material(sliding_friction=0.7))
+    return NumbaDEMSimulator().simulate(spec, tmp_path_factory.mktemp("tiny07"))
+
+
+def test_plugin_registers_the_simulator() -> None:
+    assert calibrax_simulators() == [NumbaDEMSimulator]
+    sim = NumbaDEMSimulator()
+    assert sim.name == "numba_dem"
+    assert {"wall_friction", "size_distribution", "cohesion", "base_ribs"} <= sim.capabilities()
+
+
+def test_four_finite_peaks_and_positive_aif(tiny_result) -> None:
+    spec, res = tiny_result
+    assert res.peak_shear_stress.shape == (4,)
+    assert res.is_finite()
+    assert np.all(res.peak_shear_stress > 0)
+    locus = res.yield_locus()
+    assert locus.aif_deg > 0
+    assert np.all(np.isfinite(res.bulk_density)) and np.all(res.bulk_density > 1000)
+    kinds = [s.kind for s in res.steps]
+    assert kinds == ["preshear", "shear"] * 4
+    assert all(s.rotation[0] < 0.02 for s in res.steps)
+    assert (spec.procedure.shear_stresses == tuple(res.target_normal_stress))
+
+
+def test_servo_holds_sigma(tiny_result) -> None:
+    """σ averaged over each window within 10 % of its target, and within 5 % on average over the
+    steps (577 particles: σ swings by ±10 % sample to sample)."""
+    _, res = tiny_result
+    errors = [float(np.mean(s.normal_stress) / s.target_stress - 1) for s in res.steps]
+    assert max(abs(e) for e in errors) < 0.10, errors
+    assert np.mean(np.abs(errors)) < 0.05, errors
+
+
+def test_log_written(tiny_result, tmp_path) -> None:
+    spec, res = tiny_result
+    assert res.provenance.backend == "numba_dem"
+    assert res.provenance.particle_count == spec.particle_count
+
+
+def test_peak_rises_with_friction(tiny_result, tiny_high_friction) -> None:
+    _, low = tiny_result  # μs = 0.5
+    high = tiny_high_friction
+    assert np.mean(high.peak_shear_stress) > np.mean(low.peak_shear_stress)
+
+
+def test_same_seed_identical(tiny_result, tmp_path) -> None:
+    spec, first = tiny_result
+    second = NumbaDEMSimulator().simulate(spec, tmp_path)
+    for a, b in zip(first.steps, second.steps):
+        for ch in ("time", "rotation", "shear_stress", "normal_stress", "bed_height"):
+            np.testing.assert_array_equal(getattr(a, ch), getattr(b, ch))
+    np.testing.assert_array_equal(first.peak_shear_stress, second.peak_shear_stress)
+
+
+@pytest.mark.parametrize("change", [
+    {"radius": -1e-3},
+    {"material": {"poisson_ratio": 0.5}},
+    {"numerics": {"dt_fraction": 1.5}},
+    {"procedure": {"preshear_stress": -1.0}},
+    {"geometry": {"blade_count": 400}},
+])
+def test_bad_spec_fails_fast(change, tmp_path) -> None:
+    spec = ShearCellSpec.preset("tiny").replace(**change) if "radius" not in change else \
+        ShearCellSpec.preset("tiny").replace(radius=change["radius"])
+    t0 = time.perf_counter()
+    with pytest.raises(SpecError):
+        NumbaDEMSimulator().simulate(spec, tmp_path)
+    assert time.perf_counter() - t0 < 2.0
+    assert not (tmp_path / "numba_dem.log").exists()

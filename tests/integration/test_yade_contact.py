@@ -1,0 +1,52 @@
+"""YADE backend: the contact law against Hertz theory (real ``yade`` binary, no mocks)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from calibrax_yade.contact import contact_params, effective_moduli, facet_material
+from calibrax_yade.verification import damped_hertz_restitution, two_sphere_collision
+
+from calibrax.core.sheartest import ShearCellSpec
+
+
+def test_elastic_collision_matches_hertz_contact_time():
+    out = two_sphere_collision(speed=0.5, restitution=1.0)
+    assert out["contact_time"] == pytest.approx(out["hertz_contact_time"], rel=0.02)
+    assert out["restitution"] == pytest.approx(1.0, rel=0.02)
+    assert abs(out["energy_change"]) < 1e-3
+    # YADE built LIGGGHTS' normal coefficient 4/3 E* sqrt(R*) from the converted parameters
+    assert out["kno"] == pytest.approx(out["kno_theory"], rel=1e-9)
+
+
+def test_damped_collision_matches_requested_restitution():
+    out = two_sphere_collision(speed=0.5, restitution=0.3)
+    assert out["restitution"] == pytest.approx(0.3, rel=0.02)
+    assert out["restitution"] == pytest.approx(out["damped_restitution"], rel=0.02)
+    assert out["energy_change"] < 0
+
+
+def test_damped_hertz_ode_reproduces_liggghts_restitution():
+    e, t = damped_hertz_restitution(0.5, 0.9e-3, 25e9, 0.25, 3000.0, 0.5)
+    assert e == pytest.approx(0.5, rel=0.01)
+    assert t > 0
+
+
+def test_facet_material_restores_liggghts_wall_stiffness():
+    e, nu = 25e9, 0.25
+    ew, nuw = facet_material(e, nu)
+    e_star, g_star = effective_moduli(e, nu)
+    # YADE 2023.02 pair moduli, facet contact radius R = 2r/3, against LIGGGHTS' wall R* = r
+    ey = 1.0 / ((1 - nu**2) / e + (1 - nuw**2) / ew)
+    g, gw = e / (2 * (1 + nu)), ew / (2 * (1 + nuw))
+    gy = 1.0 / ((2 - nu) / g + (2 - nuw) / gw)
+    assert ey * math.sqrt(2.0 / 3.0) == pytest.approx(e_star, rel=1e-12)
+    assert gy * math.sqrt(2.0 / 3.0) == pytest.approx(g_star, rel=1e-12)
+
+
+def test_rolling_parameters_follow_epsd2():
+    spec = ShearCellSpec.preset("tiny")
+    cp = contact_params(spec)
+    assert cp.eta == pytest.approx(spec.material.rolling_friction / 2)
+    assert cp.krot > 0 and math.isfinite(cp.krot)

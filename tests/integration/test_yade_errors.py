@@ -1,0 +1,66 @@
+"""YADE backend: bad input is refused before anything is written; a missing binary is reported."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from calibrax_yade import YadeSimulator
+from calibrax_yade.plugin import calibrax_simulators
+from calibrax_yade.runner import check_numbers
+
+from calibrax.core.sheartest import Material, ShearCellSpec
+from calibrax.errors import ConfigError, EngineNotFound, SpecError
+
+
+def _tiny(**changes):
+    return ShearCellSpec.preset("tiny").replace(**changes)
+
+
+@pytest.mark.parametrize("changes", [
+    {"material": {"youngs_modulus": math.nan}},
+    {"material": {"sliding_friction": "0.5"}},
+    {"radius": math.inf},
+    {"procedure": {"rotation_rate": "fast"}},
+    {"numerics": {"dt_fraction": math.nan}},
+])
+def test_bad_numbers_are_refused_before_any_file(tmp_path, changes):
+    workdir = tmp_path / "run"
+    with pytest.raises(SpecError):
+        YadeSimulator().simulate(_tiny(**changes), workdir)
+    assert not workdir.exists()
+
+
+def test_parameter_file_accepts_only_finite_numbers():
+    check_numbers({"a": 1.0, "b": [1, 2.5], "c": {"d": 3}})
+    for bad in ({"a": math.nan}, {"a": "1"}, {"a": [1.0, math.inf]}, {"a": True}, {"a": None}, {"a b": 1.0}):
+        with pytest.raises(SpecError):
+            check_numbers(bad)
+
+
+def test_unmodelled_effects_are_refused(tmp_path):
+    with pytest.raises(ConfigError, match="cohesion"):
+        YadeSimulator().simulate(_tiny(material=Material(cohesion_energy_density=1e3)), tmp_path / "c")
+    with pytest.raises(SpecError, match="rolling"):
+        YadeSimulator().simulate(_tiny(geometry={"base_rolling_friction": 0.1}), tmp_path / "r")
+    assert not (tmp_path / "c").exists() and not (tmp_path / "r").exists()
+
+
+def test_missing_binary_raises_engine_not_found(tmp_path, monkeypatch):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.delenv("CALIBRAX_YADE", raising=False)
+    with pytest.raises(EngineNotFound, match="apt-get install -y yade"):
+        YadeSimulator().simulate(_tiny(), tmp_path / "run")
+    with pytest.raises(EngineNotFound, match="apt-get install -y yade"):
+        YadeSimulator(executable="/nonexistent/yade").version()
+
+
+def test_plugin_registers_the_simulator():
+    (cls,) = calibrax_simulators()
+    sim = cls()
+    assert sim.name == "yade"
+    assert {"wall_friction", "size_distribution", "base_ribs", "rolling_friction"} <= sim.capabilities()
+    assert "cohesion" not in sim.capabilities()
+    from importlib.metadata import entry_points
+
+    assert any(ep.name == "yade" and ep.value == "calibrax_yade.plugin" for ep in entry_points(group="calibrax"))
