@@ -78,3 +78,37 @@ def calibrax_cli(*args: str, env: dict | None = None, timeout: float = 600) -> s
     """Run the real ``calibrax`` command line in a subprocess."""
     return subprocess.run([sys.executable, "-m", "calibrax.cli", *args], capture_output=True, text=True,
                           env=env or double_env(), timeout=timeout, cwd=ROOT)
+
+
+PSEUDO_EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny.csv"
+#: A shortened ``tiny`` shear test for campaign tests of the real backends: the paper's four
+#: steps, half the preset's rotations, so that one simulation takes about a minute on one core.
+SHORT_TINY_CELL = {"preset": "tiny", "procedure": {"preset": "paper", "preshear_rotation": 0.06,
+                                                   "shear_rotation": 0.06},
+                   "numerics": {"dt_fraction": 0.2, "threads": 1}}
+
+
+def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
+    """A short campaign on a REAL backend against the bundled pseudo-experiment; ``changes``
+    update its keys. E is kept low (5–10 GPa: larger time steps) so that simulations are cheap."""
+    import shutil
+
+    shutil.copy(PSEUDO_EXPERIMENT, folder / "exp.csv")
+    config = {
+        "name": f"{simulator}-campaign",
+        "simulator": simulator,
+        "experiment": "exp.csv",
+        "cell": SHORT_TINY_CELL,
+        "parameters": {"youngs_modulus": {"low": 5.0e9, "high": 1.0e10, "log": True},
+                       "sliding_friction": {"low": 0.2, "high": 0.6}},
+        "metric": "c_aif",
+        "acquisition": {"name": "qei", "q": 2},
+        "budget": {"initial": 2, "iterations": 1},
+        "executor": {"name": "local", "workers": 2, "timeout_s": 900},
+        "store": "runs/campaign.h5",
+        "seed": 5,
+    }
+    config.update(changes)
+    path = folder / "campaign.yaml"
+    path.write_text(yaml.safe_dump(config, sort_keys=False))
+    return path

@@ -1,8 +1,12 @@
-"""The dask executor: a real dask.distributed scheduler with worker processes on localhost; a
-worker killed mid-simulation loses nothing; the SLURM job script rendered from a calibrax YAML."""
+"""The dask executor: a real dask.distributed scheduler with worker processes on localhost runs a
+campaign on the real numba_dem backend, and a worker killed mid-simulation loses nothing; the
+same with the analytic test double under a tighter schedule; the SLURM job script rendered from
+a calibrax YAML."""
 
 from __future__ import annotations
 
+import math
+import pathlib
 import signal
 import subprocess
 import sys
@@ -13,7 +17,52 @@ import yaml
 
 from calibrax import CampaignStore, load_config
 from calibrax.plugins.manager import get_manager
-from tests.conftest import ROOT, calibrax_cli, double_env, write_double_campaign
+from tests.conftest import ROOT, calibrax_cli, double_env, write_backend_campaign, write_double_campaign
+
+
+def _kill_worker_of_first_simulation(proc: subprocess.Popen, after_s: float, deadline_s: float) -> str | None:
+    """SIGKILL the Dask worker process of the first isolated simulation seen, ``after_s`` into it."""
+    deadline = time.monotonic() + deadline_s
+    while time.monotonic() < deadline and proc.poll() is None:
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                if "calibrax.core.isolate" in " ".join(child.cmdline()):
+                    time.sleep(after_s)  # mid-simulation
+                    worker = child.parent()
+                    task = child.cmdline()[-3]
+                    worker.send_signal(signal.SIGKILL)
+                    return task
+            except psutil.NoSuchProcess:
+                continue
+        time.sleep(0.1)
+    return None
+
+
+def test_dask_campaign_on_numba_dem_survives_a_killed_worker(tmp_path):
+    """A real scheduler and 2 worker processes run a numba_dem campaign (2 Sobol points, one qEI
+    batch of 2) to the end while one worker is SIGKILLed mid-simulation: every simulation is
+    accounted for, the killed one ran again elsewhere, and none completed twice."""
+    path = write_backend_campaign(tmp_path, "numba_dem",
+                                  executor={"name": "dask", "cluster": "local", "workers": 2, "retries": 2,
+                                            "timeout_s": 900})
+    proc = subprocess.Popen([sys.executable, "-m", "calibrax.cli", "run", str(path)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killed_task = _kill_worker_of_first_simulation(proc, after_s=8.0, deadline_s=180)
+    out, err = proc.communicate(timeout=1500)
+    assert killed_task is not None, "no simulation was caught running"
+    assert proc.returncode == 0, err[-3000:]
+    points = CampaignStore(tmp_path / "runs/campaign.h5").points()
+    assert len(points) == 2 + 2
+    assert all(p.status == "done" for p in points), [p.sims for p in points if p.status != "done"]
+    assert all(math.isfinite(p.metric.value) for p in points)
+    folders = sorted((tmp_path / "runs/campaign.runs").iterdir())
+    assert len(folders) == 4
+    attempts = {f.name: (f / "attempts.log").read_text().splitlines() for f in folders}
+    for name, lines in attempts.items():
+        assert sum(line.endswith(" completed") for line in lines) == 1, (name, lines)
+    killed_folder = attempts[pathlib.Path(killed_task).parent.name]
+    assert sum(" started numba_dem" in line for line in killed_folder) == 2, killed_folder
+    assert "numba_dem" in err and "seed" in err  # the log says which engine ran which point with which seed
 
 
 def test_worker_killed_mid_simulation_campaign_still_finishes(tmp_path):

@@ -90,3 +90,20 @@ def test_a_store_of_another_campaign_is_refused(tmp_path):
     path.write_text(yaml.dump(config))
     proc = calibrax_cli("run", str(path))
     assert proc.returncode == 2 and "different settings" in proc.stderr
+
+
+def test_procedure_mapping_overrides_fields_of_its_preset(tmp_path):
+    """``cell.procedure: {preset, field: value}`` (as the README documents) changes those fields
+    and keeps the preset's others; a bad field value names its key."""
+    from calibrax.core.config import load_config
+
+    path = write_double_campaign(tmp_path, cell={"preset": "tiny", "procedure": {
+        "preset": "astm_d7891", "shear_rotation": 0.05, "shear_stresses": [5000, 4000, 3000]}})
+    spec = load_config(path).spec
+    assert spec.procedure.shear_rotation == 0.05
+    assert spec.procedure.shear_stresses == (5000.0, 4000.0, 3000.0)
+    assert spec.procedure.preshear_stress == 9000.0  # from astm_d7891
+    assert spec.procedure.rotation_rate == 6.0  # from the tiny fidelity preset
+    bad = write_double_campaign(tmp_path, cell={"procedure": {"preset": "paper", "shear_rotation": -1}})
+    proc = calibrax_cli("run", str(bad), "--check")
+    assert proc.returncode == 2 and "cell.procedure.shear_rotation" in proc.stderr, proc.stderr

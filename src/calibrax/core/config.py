@@ -209,12 +209,12 @@ def build_spec(cell: Any, material: Any) -> ShearCellSpec:
     for sub, cls in (("geometry", Geometry), ("numerics", Numerics), ("size_distribution", SizeDistribution)):
         if sub in cell:
             overrides[sub] = _dataclass_values(f"cell.{sub}", cell[sub], cls)
-    if proc_overrides:
-        overrides["procedure"] = proc_overrides
     if "fill_solid_fraction" in cell:
         overrides["fill_solid_fraction"] = _number("cell.fill_solid_fraction", cell["fill_solid_fraction"])
     try:
         spec = ShearCellSpec.preset(preset, procedure, **overrides)
+        if proc_overrides:
+            spec = spec.replace(procedure=proc_overrides)
         spec.validate()
     except SpecError as exc:
         where = exc.key if exc.key.startswith(("material.", "cell.")) else (

@@ -12,6 +12,7 @@ import concurrent.futures as cf
 import os
 import pickle
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -94,10 +95,37 @@ class _Running:
                 pass
 
 
+ATTEMPTS_LOG = "attempts.log"
+
+
+def _log_attempt(workdir: Path, event: str) -> None:
+    """Append one line to the work folder's ``attempts.log``: UTC time, host, worker pid, event.
+
+    Every start and every end of a simulation attempt is there, so that a folder tells which
+    machine ran it, how often it was tried, and that it completed once."""
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    with open(Path(workdir) / ATTEMPTS_LOG, "a", encoding="utf-8") as f:
+        f.write(f"{stamp} host={socket.gethostname()} pid={os.getpid()} {event}\n")
+
+
 def run_isolated(task: SimulationTask, timeout_s: float | None = None, handle: _Running | None = None) -> ShearTestResult:
     """Run ``task`` in a fresh Python process (its own session, so a Ctrl-C meant for the campaign
     does not reach it); kill it after ``timeout_s``. The task and its outcome travel as pickle
-    files in the task's work folder, which also keeps the engine's own files."""
+    files in the task's work folder, which also keeps the engine's own files and ``attempts.log``
+    (one line per start and end of an attempt)."""
+    workdir = Path(task.workdir)
+    workdir.mkdir(parents=True, exist_ok=True)
+    _log_attempt(workdir, f"started {task.simulator} seed={task.spec.numerics.seed}")
+    try:
+        result = _run_in_process(task, timeout_s, handle)
+    except SimulationFailed as exc:
+        _log_attempt(workdir, f"failed ({exc.kind}): {exc.reason.splitlines()[0] if exc.reason else ''}")
+        raise
+    _log_attempt(workdir, "completed")
+    return result
+
+
+def _run_in_process(task: SimulationTask, timeout_s: float | None, handle: _Running | None) -> ShearTestResult:
     workdir = Path(task.workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     request, outcome = workdir / "task.pkl", workdir / "outcome.pkl"
