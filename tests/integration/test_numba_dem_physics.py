@@ -20,6 +20,19 @@ def test_restitution_independent_of_speed(restitution: float, speed: float) -> N
     assert r["restitution"] == pytest.approx(restitution, rel=0.02)
 
 
+def test_peak_overlap_of_elastic_impact_matches_hertz() -> None:
+    """δ_max = (15 m* v² / (16 E* √R*))^(2/5) for two equal spheres (m* = m/2, R* = R/2)."""
+    import math
+
+    radius, e, nu, rho, v = 0.9e-3, 25e9, 0.25, 3000.0, 0.5
+    r = V.two_sphere_collision(speed=v, restitution=1.0, radius=radius, youngs_modulus=e, poisson_ratio=nu,
+                               density=rho)
+    mstar = 4.0 / 3.0 * math.pi * radius**3 * rho / 2.0
+    estar = e / (2.0 * (1.0 - nu**2))
+    theory = (15.0 * mstar * v**2 / (16.0 * estar * math.sqrt(radius / 2.0))) ** 0.4
+    assert r["peak_overlap"] == pytest.approx(theory, rel=0.01)
+
+
 def test_energy_conserved_for_elastic_impact() -> None:
     r = V.two_sphere_collision(speed=1.0, restitution=1.0)
     assert abs(r["energy_change"]) < 0.005

@@ -6,7 +6,9 @@ import math
 
 import pytest
 from calibrax_yade.contact import contact_params, effective_moduli, facet_material
-from calibrax_yade.verification import damped_hertz_restitution, two_sphere_collision
+from calibrax_yade.verification import (KNOWN_DIFFERENCES, damped_hertz_impact, damped_hertz_restitution,
+                                       liggghts_beta, rolling_resistance, sliding_on_base, thornton_beta,
+                                       two_sphere_collision)
 
 from calibrax.core.sheartest import ShearCellSpec
 
@@ -25,6 +27,40 @@ def test_damped_collision_matches_requested_restitution():
     assert out["restitution"] == pytest.approx(0.3, rel=0.02)
     assert out["restitution"] == pytest.approx(out["damped_restitution"], rel=0.02)
     assert out["energy_change"] < 0
+
+
+def test_damped_collision_follows_yades_no_tension_law_not_liggghts():
+    """YADE 2023.02 turns en into Thornton's β_n and clips the damped force at zero: the same e
+    as LIGGGHTS' law, but a longer, shallower contact (a documented KNOWN_DIFFERENCE)."""
+    out = two_sphere_collision(speed=0.5, restitution=0.3)
+    assert out["betan"] == pytest.approx(out["betan_thornton"], rel=1e-9)
+    assert out["contact_time"] == pytest.approx(out["damped_contact_time"], rel=0.01)
+    assert out["peak_overlap"] == pytest.approx(out["damped_peak_overlap"], rel=0.01)
+    assert out["contact_time"] > 1.02 * out["liggghts_contact_time"]
+    assert out["peak_overlap"] < 0.95 * out["liggghts_peak_overlap"]
+    assert ("two_sphere_collision", "contact_time") in KNOWN_DIFFERENCES
+
+
+def test_yades_and_liggghts_damped_laws_give_the_same_restitution():
+    for e in (0.3, 0.5, 0.8):
+        yade = damped_hertz_impact(e, 0.9e-3, 25e9, 0.25, 3000.0, 0.5, law="yade")
+        lig = damped_hertz_impact(e, 0.9e-3, 25e9, 0.25, 3000.0, 0.5, law="liggghts")
+        assert yade["restitution"] == pytest.approx(e, rel=0.01)
+        assert lig["restitution"] == pytest.approx(e, rel=0.01)
+        assert thornton_beta(e) > liggghts_beta(e) > 0
+    assert thornton_beta(1.0) == liggghts_beta(1.0) == 0.0
+
+
+def test_sliding_on_a_base_facet_decelerates_at_mu_g():
+    out = sliding_on_base(friction=0.5)
+    assert out["deceleration"] == pytest.approx(out["expected"], rel=0.02)
+
+
+def test_rolling_on_a_base_facet_saturates_at_three_quarters_of_liggghts_limit():
+    out = rolling_resistance(rolling_friction=0.5)
+    assert out["torque"] == pytest.approx(out["yade_limit"], rel=0.02)
+    assert out["yade_limit"] == pytest.approx(0.75 * out["expected"])
+    assert out["peak_torque"] <= 1.05 * out["yade_limit"]
 
 
 def test_damped_hertz_ode_reproduces_liggghts_restitution():

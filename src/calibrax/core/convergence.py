@@ -14,10 +14,13 @@ from dataclasses import dataclass
 from calibrax.core.config import CampaignConfig
 from calibrax.core.sheartest import ShearCellSpec, inertial_number
 from calibrax.core.study import CaseOutcome, StudyCase
-from calibrax.errors import ConfigError
+from calibrax.errors import ConfigError, SpecError
 
 #: knob → (cheapest first when sorted ascending?, what "finest" means)
 KNOBS = {"particles_per_diameter": True, "dt_fraction": False, "rotation_rate": False}
+#: knob → the ``calibrax converge`` option that sets it
+OPTIONS = {"particles_per_diameter": "--particles-per-diameter", "dt_fraction": "--dt-fraction",
+           "rotation_rate": "--shear-rate"}
 
 
 def with_particles_per_diameter(spec: ShearCellSpec, ppd: float) -> ShearCellSpec:
@@ -45,12 +48,20 @@ def converge_cases(config: CampaignConfig, backend: str, seeds: int,
     """One case per (knob, value); the other knobs keep the config's values."""
     cases = []
     for knob, values in settings.items():
+        option = OPTIONS.get(knob, knob)
         if len(values) < 2:
-            raise ConfigError(f"--{knob.replace('_', '-')}", "give at least two values to compare")
+            raise ConfigError(option, f"give at least two comma-separated values to compare, got {values}")
+        if len(set(values)) != len(values):
+            raise ConfigError(option, f"each value once, got {values}")
         for v in values:
             if not (math.isfinite(v) and v > 0):
-                raise ConfigError(f"--{knob.replace('_', '-')}", f"values must be finite and > 0, got {v}")
-            spec = vary(config.spec, knob, v).validate()
+                raise ConfigError(option, f"values must be finite and > 0, got {v:g}")
+            if knob == "dt_fraction" and v > 1:
+                raise ConfigError(option, f"a fraction of the critical time step lies in (0, 1], got {v:g}")
+            try:
+                spec = vary(config.spec, knob, v).validate()
+            except SpecError as exc:
+                raise ConfigError(option, f"{v:g} gives an invalid cell: {exc}") from None
             cases.append(StudyCase(f"{knob}={v:g}", backend, spec,
                                    tuple(config.seed * 1000 + s for s in range(seeds)), {knob: float(v)}))
     return cases
@@ -66,11 +77,12 @@ class Verdict:
     rows: list[tuple[float, dict[str, float], bool]]  # (value, summary, within)
 
     def sentence(self) -> str:
+        """The verdict: always names the cheapest setting (the finest itself when no other is within)."""
         if self.cheapest_ok is None:
-            return (f"{self.knob}: no setting but the finest ({self.finest:g}) reproduces its C and AIF within "
-                    "the uncertainty; go finer to see convergence")
-        return (f"{self.knob}: {self.cheapest_ok:g} is the cheapest setting whose C and AIF lie within "
-                f"2·√(u² + u_finest²) of the finest ({self.finest:g})")
+            return (f"{self.knob}: the cheapest setting is the finest, {self.finest:g}: no coarser setting's C and AIF "
+                    "lie within 2·√(u² + u_finest²) of its own; go finer to see convergence")
+        return (f"{self.knob}: the cheapest setting is {self.cheapest_ok:g}: its C and AIF lie within "
+                f"2·√(u² + u_finest²) of the finest's ({self.finest:g})")
 
 
 def verdicts(outcomes: list[CaseOutcome]) -> list[Verdict]:

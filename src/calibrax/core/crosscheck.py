@@ -7,12 +7,15 @@ u = max(regression s.e., seed s.d./√n).
 
 Micro level: each backend's ``verification`` module (the sibling module ``verification`` of its
 simulator class) runs the analytic cases — a head-on two-sphere collision (contact time,
-restitution, peak overlap), sliding on the base, rolling resistance — and the values are set side
-by side; they agree when they lie within 2 % of their mean.
+restitution, peak overlap), sliding on the base, rolling resistance — at the config's material,
+and the values are set side by side; they agree when they lie within 2 % of their mean. A
+quantity in which a backend's contact law differs by construction is listed in its module's
+``KNOWN_DIFFERENCES`` ({(function, quantity): why}); the table then says so and why.
 """
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import importlib
 import inspect
 import itertools
@@ -52,15 +55,26 @@ def parse_point(text: str, config: CampaignConfig) -> dict[str, float]:
 def crosscheck_cases(config: CampaignConfig, backends: list[str], seeds: int,
                      points: list[dict[str, float]]) -> list[StudyCase]:
     """One case per (point, backend); the same spec and seeds on every backend."""
+    from calibrax.core.simulator import check_capabilities
+
     manager = get_manager()
+    simulators = {}
     for b in backends:
         try:
-            manager.get("simulator", b)
+            simulators[b] = manager.create("simulator", b)
         except PluginError as exc:
             raise ConfigError("--backends", str(exc)) from None
     cases = []
     for j, params in enumerate(points or [{}]):
-        spec = config.spec.replace(material=dict(params)).validate()
+        try:
+            spec = config.spec.replace(material=dict(params)).validate()
+        except ConfigError as exc:
+            raise ConfigError("--points", f"{params}: {exc}") from None
+        for b, sim in simulators.items():
+            try:
+                check_capabilities(sim, spec)
+            except ConfigError as exc:
+                raise ConfigError("--backends", exc.message) from None
         label = ", ".join(f"{k}={v:g}" for k, v in params.items()) or "base spec"
         for b in backends:
             cases.append(StudyCase(f"P{j}: {label}", b, spec,
@@ -86,7 +100,9 @@ class Agreement:
 
 
 def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
-    """Pairwise C and AIF agreement of the backends at each point (2σ of the combined uncertainty)."""
+    """Pairwise agreement of the backends at each point (2σ of the combined uncertainty) in C and
+    AIF, and in the bulk density after the first preshear where both have ≥ 2 seeds (its u is
+    the seed s.d./√n)."""
     by_point: dict[str, list[CaseOutcome]] = {}
     for o in outcomes:
         by_point.setdefault(o.case.label, []).append(o)
@@ -94,9 +110,11 @@ def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
     for label, group in by_point.items():
         for a, b in itertools.combinations(group, 2):
             sa, sb = a.summary(), b.summary()
-            for q in ("cohesion", "aif"):
+            for q in ("cohesion", "aif", "bulk_density"):
                 if q in sa and q in sb:
                     limit = 2.0 * math.hypot(sa[f"{q}_u"], sb[f"{q}_u"])
+                    if q == "bulk_density" and not math.isfinite(limit):
+                        continue
                     out.append(Agreement(label, q, a.case.backend, b.case.backend, sa[q] - sb[q], limit))
     return out
 
@@ -117,44 +135,114 @@ MICRO_CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "sliding on base": ("sliding_on_base", {}),
     "rolling resistance": ("rolling_resistance", {}),
 }
+#: quantities compared on an absolute scale (tolerance 2 % of max(|mean|, scale)): a relative
+#: difference of values near zero, like the energy change of an elastic impact, means nothing
+ABSOLUTE_SCALE = {"energy_change": 1.0}
+#: not compared: inputs and bookkeeping
+NOT_COMPARED = {"error", "dt"}
 
 
-def micro_checks(config: CampaignConfig, backends: list[str]) -> dict[str, dict[str, dict[str, float]]]:
-    """{case: {backend: {quantity: value}}} of every micro case each backend implements."""
-    m, radius = config.spec.material, config.spec.radius
-    material = {"radius": radius, "youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio,
-                "density": m.density, "restitution": m.restitution, "friction": m.sliding_friction,
-                "rolling_friction": m.rolling_friction}
-    out: dict[str, dict[str, dict[str, float]]] = {}
-    for backend in backends:
-        module = verification_module(backend)
-        for case, (function, fixed) in MICRO_CASES.items():
-            fn = getattr(module, function, None) if module is not None else None
-            if fn is None:
-                continue
-            accepted = inspect.signature(fn).parameters
-            kwargs = {k: v for k, v in {**material, **fixed}.items() if k in accepted}
-            log.info("crosscheck: micro case %r on %s", case, backend)
-            try:
-                values = fn(**kwargs)
-            except Exception as exc:  # noqa: BLE001 — a failed check is shown as such, not a crash
-                values = {"error": str(exc)}
-            out.setdefault(case, {})[backend] = {k: v for k, v in values.items()
-                                                 if isinstance(v, (int, float)) or k == "error"}
+def micro_material(config: CampaignConfig) -> dict[str, float]:
+    """The keyword arguments of the micro cases: the config's material and radius."""
+    m = config.spec.material
+    return {"radius": config.spec.radius, "youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio,
+            "density": m.density, "restitution": m.restitution, "friction": m.sliding_friction,
+            "rolling_friction": m.rolling_friction}
+
+
+def _micro_backend(backend: str, material: dict[str, float]) -> dict[str, dict[str, float]]:
+    """{case: {quantity: value}} of every micro case ``backend``'s verification module implements."""
+    module = verification_module(backend)
+    out: dict[str, dict[str, float]] = {}
+    for case, (function, fixed) in MICRO_CASES.items():
+        fn = getattr(module, function, None) if module is not None else None
+        if fn is None:
+            continue
+        accepted = inspect.signature(fn).parameters
+        kwargs = {k: v for k, v in {**material, **fixed}.items() if k in accepted}
+        log.info("crosscheck: micro case %r on %s", case, backend)
+        try:
+            values = fn(**kwargs)
+        except Exception as exc:  # noqa: BLE001 — a failed check is shown as such, not a crash
+            values = {"error": f"{type(exc).__name__}: {exc}"}
+        out[case] = {k: (float(v) if k != "error" else v) for k, v in values.items()
+                     if (isinstance(v, (int, float)) and not isinstance(v, bool)) or k == "error"}
     return out
 
 
-def micro_agreement(checks: dict[str, dict[str, dict[str, float]]]) -> list[tuple[str, str, dict[str, float], bool]]:
-    """(case, quantity, {backend: value}, agree) for quantities measured by ≥ 2 backends."""
+def micro_checks(config: CampaignConfig, backends: list[str],
+                 workers: int = 1) -> dict[str, dict[str, dict[str, float]]]:
+    """{case: {backend: {quantity: value}}} of every micro case each backend implements, at the
+    config's material; up to ``workers`` backends at once (LIGGGHTS and YADE run as subprocesses)."""
+    material = micro_material(config)
+    with cf.ThreadPoolExecutor(max_workers=max(1, min(workers, len(backends)))) as pool:
+        per_backend = dict(zip(backends, pool.map(lambda b: _micro_backend(b, material), backends)))
+    out: dict[str, dict[str, dict[str, float]]] = {}
+    for case in MICRO_CASES:
+        for backend in backends:
+            if case in per_backend[backend]:
+                out.setdefault(case, {})[backend] = per_backend[backend][case]
+    return out
+
+
+def known_differences(backends: list[str]) -> dict[str, dict[tuple[str, str], str]]:
+    """{backend: {(function, quantity): why}} from each verification module's ``KNOWN_DIFFERENCES``:
+    the micro-level quantities in which a backend's contact law differs by construction."""
+    out = {}
+    for b in backends:
+        module = verification_module(b)
+        out[b] = dict(getattr(module, "KNOWN_DIFFERENCES", {}) or {}) if module is not None else {}
+    return out
+
+
+@dataclass(frozen=True)
+class MicroRow:
+    """One micro-level quantity measured by several backends.
+
+    ``agree``: all values within 2 % of their mean (of max(|mean|, scale) for ``ABSOLUTE_SCALE``
+    quantities). ``known``: when they do not agree, the backends whose contact law is documented
+    to differ in this quantity (their module's ``KNOWN_DIFFERENCES``) and ``others_agree``: whether
+    the remaining backends agree among themselves."""
+
+    case: str
+    quantity: str
+    values: dict[str, float]
+    agree: bool
+    known: tuple[str, ...] = ()
+    others_agree: bool = True
+
+
+def _within(values: list[float], quantity: str) -> bool:
+    if len(values) < 2:
+        return True
+    mean = sum(values) / len(values)
+    spread = max(values) - min(values)
+    return spread <= MICRO_TOLERANCE * max(abs(mean), ABSOLUTE_SCALE.get(quantity, 0.0))
+
+
+def micro_agreement(checks: dict[str, dict[str, dict[str, float]]],
+                    known: dict[str, dict[tuple[str, str], str]] | None = None) -> list[MicroRow]:
+    """One row per quantity measured by ≥ 2 backends (see :class:`MicroRow`)."""
+    known = known or {}
     rows = []
     for case, per_backend in checks.items():
+        function = MICRO_CASES.get(case, (case, {}))[0]
         keys = set.intersection(*(set(v) for v in per_backend.values())) if per_backend else set()
-        for key in sorted(keys - {"error", "dt"}):
+        for key in sorted(keys - NOT_COMPARED):
             values = {b: float(v[key]) for b, v in per_backend.items()}
             if len(values) < 2:
                 continue
-            mean = sum(values.values()) / len(values)
-            spread = max(values.values()) - min(values.values())
-            agree = spread <= MICRO_TOLERANCE * abs(mean) if mean else spread == 0
-            rows.append((case, key, values, agree))
+            agree = _within(list(values.values()), key)
+            flagged: tuple[str, ...] = ()
+            others = True
+            if not agree:
+                flagged = tuple(b for b in values if (function, key) in known.get(b, {}))
+                others = _within([v for b, v in values.items() if b not in flagged], key)
+            rows.append(MicroRow(case, key, values, agree, flagged, others))
     return rows
+
+
+def micro_errors(checks: dict[str, dict[str, dict[str, float]]]) -> list[tuple[str, str, str]]:
+    """(case, backend, error) of every micro case that raised."""
+    return [(case, b, str(v["error"])) for case, per_backend in checks.items() for b, v in per_backend.items()
+            if "error" in v]

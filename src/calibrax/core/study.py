@@ -75,7 +75,7 @@ class CaseOutcome:
     def summary(self) -> dict[str, float]:
         """C and AIF (pooled fit) with their regression s.e., the seed-to-seed s.d., and the
         uncertainty of the estimate u = max(regression s.e., s.d./√n); mean peaks per step (Pa),
-        bulk density after the first preshear (kg/m³)."""
+        bulk density after the first preshear (kg/m³) with its seed s.d. and u = s.d./√n."""
         locus = self.locus()
         loci = self.seed_loci()
         n = len(loci)
@@ -90,9 +90,12 @@ class CaseOutcome:
             "cohesion_u": float(np.nanmax([locus.cohesion_stderr, c_sd / math.sqrt(n) if n >= 2 else np.nan])),
             "aif_u": float(np.nanmax([locus.aif_stderr_deg, a_sd / math.sqrt(n) if n >= 2 else np.nan])),
             "bulk_density": float(np.mean([r.bulk_density[0] for r in self.good])),
+            "bulk_density_sd": float(np.std([r.bulk_density[0] for r in self.good], ddof=1))
+            if len(self.good) > 1 else float("nan"),
             "wall_time": float(np.mean([r.provenance.wall_time for r in self.good])),
             "particles": float(self.good[0].provenance.particle_count),
         })
+        out["bulk_density_u"] = out["bulk_density_sd"] / math.sqrt(len(self.good))
         peaks = np.stack([r.peak_shear_stress for r in self.good])
         for k, sigma in enumerate(self.good[0].target_normal_stress):
             out[f"peak_{sigma:.0f}"] = float(peaks[:, k].mean())

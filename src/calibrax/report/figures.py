@@ -34,8 +34,9 @@ def scaled(name: str, value: float | np.ndarray) -> float | np.ndarray:
     return np.asarray(value) * UNITS.get(name, (name, 1.0, ""))[1]
 
 
-def _save(fig: plt.Figure, folder: Path, stem: str) -> list[str]:
-    fig.tight_layout()
+def _save(fig: plt.Figure, folder: Path, stem: str, layout: bool = True) -> list[str]:
+    if layout:
+        fig.tight_layout()
     names = []
     for ext in ("png", "svg"):
         fig.savefig(folder / f"{stem}.{ext}", dpi=130)

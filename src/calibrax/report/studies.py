@@ -3,52 +3,146 @@
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Ellipse  # noqa: E402
 
-from calibrax.core.convergence import Verdict  # noqa: E402
-from calibrax.core.crosscheck import Agreement  # noqa: E402
+from calibrax.core.convergence import Verdict, inertial_numbers  # noqa: E402
+from calibrax.core.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
 from calibrax.core.study import CaseOutcome  # noqa: E402
 from calibrax.report.figures import _save  # noqa: E402
 
 MARKERS = "osD^v<>p*h"
+#: micro-level values that are the analytic theory, not a measurement (the same on every backend)
+THEORY = {"hertz_contact_time", "expected", "sliding_time"}
 
 
 def _fmt(v: float, digits: str = ".0f") -> str:
     return format(v, digits) if isinstance(v, float) and math.isfinite(v) else "–"
 
 
-def outcome_row(o: CaseOutcome) -> str:
+def _peak_keys(s: dict[str, float]) -> list[str]:
+    return [k for k in s if k.startswith("peak_") and not k.endswith("_sd")]
+
+
+def outcome_row(o: CaseOutcome, agree: str | None = None) -> str:
+    """One table row: peaks per step (± seed s.d.), bulk density, C and AIF (± regression s.e.,
+    seed s.d.), wall time, and (cross-check) the agreement with the other backends."""
     s = o.summary()
-    peaks = " / ".join(_fmt(s[k] / 1e3, ".2f") for k in s if k.startswith("peak_") and not k.endswith("_sd"))
-    return (f"| {o.case.label} | {o.case.backend} | {int(s['seeds_ok'])}/{len(o.case.seeds)} | {peaks} | "
-            f"{_fmt(s.get('bulk_density', math.nan))} | {_fmt(s.get('cohesion', math.nan))} ± "
-            f"{_fmt(s.get('cohesion_stderr', math.nan))} (sd {_fmt(s.get('cohesion_seed_sd', math.nan))}) | "
-            f"{_fmt(s.get('aif', math.nan), '.1f')} ± {_fmt(s.get('aif_stderr', math.nan), '.1f')} "
-            f"(sd {_fmt(s.get('aif_seed_sd', math.nan), '.1f')}) | {_fmt(s.get('wall_time', math.nan), '.0f')} |")
+    peaks = []
+    for k in _peak_keys(s):
+        sd = s.get(f"{k}_sd", math.nan)
+        peaks.append(_fmt(s[k] / 1e3, ".2f") + (f" ± {sd / 1e3:.2f}" if math.isfinite(sd) else ""))
+    cells = [o.case.label, o.case.backend, f"{int(s['seeds_ok'])}/{len(o.case.seeds)}", " / ".join(peaks) or "–",
+             _fmt(s.get("bulk_density", math.nan)) + (f" ± {s['bulk_density_sd']:.0f}"
+                                                      if math.isfinite(s.get("bulk_density_sd", math.nan)) else ""),
+             f"{_fmt(s.get('cohesion', math.nan))} ± {_fmt(s.get('cohesion_stderr', math.nan))} "
+             f"(sd {_fmt(s.get('cohesion_seed_sd', math.nan))})",
+             f"{_fmt(s.get('aif', math.nan), '.1f')} ± {_fmt(s.get('aif_stderr', math.nan), '.1f')} "
+             f"(sd {_fmt(s.get('aif_seed_sd', math.nan), '.1f')})",
+             _fmt(s.get("wall_time", math.nan), ".0f")]
+    if agree is not None:
+        cells.append(agree)
+    return "| " + " | ".join(cells) + " |"
 
 
-HEAD = ("| case | backend | seeds ok | τ_peak per step [kPa] | ρ_bulk [kg/m³] | C ± s.e. (seed s.d.) [Pa] | "
-        "AIF ± s.e. (seed s.d.) [°] | wall [s] |\n|---|---|---|---|---|---|---|---|")
+def _sigma_header(outcomes: list[CaseOutcome]) -> str:
+    for o in outcomes:
+        if o.good:
+            return "/".join(f"{x / 1e3:g}" for x in o.good[0].target_normal_stress)
+    return "…"
 
 
-def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], micro_rows: list) -> str:
-    lines = ["# Cross-check", "", "## Shear test", "", HEAD, *[outcome_row(o) for o in outcomes], "",
-             "## Agreement (|Δ| ≤ 2·√(u_a² + u_b²), u = max(regression s.e., seed s.d./√n))", "",
-             "| case | quantity | backends | Δ | limit | agree |", "|---|---|---|---|---|---|"]
+def table_head(outcomes: list[CaseOutcome], first: str = "case", agreement: bool = False) -> str:
+    cols = [first, "backend", "seeds ok", f"τ_peak at σ = {_sigma_header(outcomes)} kPa [kPa] (± seed s.d.)",
+            "ρ_bulk after preshear [kg/m³] (± seed s.d.)", "C ± regr. s.e. (seed s.d.) [Pa]",
+            "AIF ± regr. s.e. (seed s.d.) [°]",
+            "wall [s]"]
+    if agreement:
+        cols.append("agrees with (C, AIF; ρ_bulk with ≥ 2 seeds)")
+    return "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols)
+
+
+def _agreement_cell(o: CaseOutcome, agree: list[Agreement]) -> str:
+    """Per other backend at the same point: "liggghts ✓✓" (C ✓, AIF ✓) or ✗ where it disagrees."""
+    parts: dict[str, dict[str, bool]] = {}
     for a in agree:
-        lines.append(f"| {a.point} | {a.quantity} | {a.backend_a} − {a.backend_b} | {a.difference:.3g} | "
-                     f"{a.limit:.3g} | {'yes' if a.agree else '**no**'} |")
-    lines += ["", "## Micro-level checks (agree: within 2 % of their mean)", "",
-              "| case | quantity | values | agree |", "|---|---|---|---|"]
-    for case, key, values, ok in micro_rows:
-        shown = ", ".join(f"{b}: {v:.5g}" for b, v in values.items())
-        lines.append(f"| {case} | {key} | {shown} | {'yes' if ok else '**no**'} |")
+        if a.point != o.case.label or o.case.backend not in (a.backend_a, a.backend_b):
+            continue
+        other = a.backend_b if a.backend_a == o.case.backend else a.backend_a
+        parts.setdefault(other, {})[a.quantity] = a.agree
+    if not parts:
+        return "–"
+    def word(q: dict[str, bool], key: str, name: str) -> str:
+        return "" if key not in q else f"{name} {'yes' if q[key] else '**no**'}"
+
+    return "; ".join(f"{b}: " + ", ".join(filter(None, (word(q, "cohesion", "C"), word(q, "aif", "AIF"),
+                                                         word(q, "bulk_density", "ρ"))))
+                     for b, q in parts.items())
+
+
+def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], micro_rows: list[MicroRow],
+                        micro_checks: dict | None = None, known: dict | None = None,
+                        material: dict[str, float] | None = None) -> str:
+    """The cross-check's Markdown page: the shear test per point and backend (with agreement),
+    the pairwise agreement table, and the micro-level checks side by side."""
+    lines = ["# Cross-check", "", "## Shear test per point and backend", "",
+             "C and AIF: one straight-line fit through the peaks of every seed (regression s.e.) and the s.d. of the "
+             "seeds' own fits; agreement: |Δ| ≤ 2·√(u_a² + u_b²), u = max(regression s.e., seed s.d./√n) (ρ_bulk: "
+             "u = seed s.d./√n).", "",
+             table_head(outcomes, agreement=True), *[outcome_row(o, _agreement_cell(o, agree)) for o in outcomes], "",
+             "## Agreement between backends", "",
+             "| case | quantity | backends | Δ | limit 2·√(u_a² + u_b²) | agree |", "|---|---|---|---|---|---|"]
+    names = {"cohesion": ("C", ".0f", " Pa"), "aif": ("AIF", ".1f", "°"), "bulk_density": ("ρ_bulk", ".0f", " kg/m³")}
+    for a in agree:
+        name, digits, unit = names[a.quantity]
+        lines.append(f"| {a.point} | {name} | {a.backend_a} − {a.backend_b} | "
+                     f"{_fmt(a.difference, digits)}{unit} | {_fmt(a.limit, digits)}{unit} | "
+                     f"{'yes' if a.agree else '**no**'} |")
+    if not agree:
+        lines.append("| – | – | – | – | – | (needs ≥ 2 backends with a fitted locus) |")
+    backends = list(dict.fromkeys(b for r in micro_rows for b in r.values))
+    lines += ["", "## Micro-level checks", ""]
+    if material:
+        lines += ["At the campaign's material: " + ", ".join(f"{k} = {v:g}" for k, v in material.items())
+                  + " (SI units). Agree: all values within 2 % of their mean (energy change: 2 % of the impact's "
+                    "kinetic energy).", ""]
+    notes: dict[str, int] = {}
+    if not micro_rows:
+        lines.append("Not run (`--no-micro`)." if material is None
+                     else "No micro-level quantity was measured by two or more backends.")
+    else:
+        lines += ["| case | quantity | " + " | ".join(backends) + " | spread / mean | agree |",
+                  "|---|---|" + "---|" * len(backends) + "---|---|"]
+    for r in micro_rows:
+        mean = sum(r.values.values()) / len(r.values)
+        spread = (max(r.values.values()) - min(r.values.values())) / abs(mean) if mean else math.nan
+        if r.agree:
+            verdict = "yes"
+        elif r.known:
+            refs = []
+            for b in r.known:
+                why = (known or {}).get(b, {}).get((MICRO_CASES.get(r.case, (r.case,))[0], r.quantity), "")
+                notes.setdefault(f"{b}: {why}", len(notes) + 1)
+                refs.append(f"[{notes[f'{b}: {why}']}]")
+            verdict = f"**no**: known difference of {', '.join(r.known)} {''.join(refs)}" + (
+                "" if r.others_agree else "; the others disagree too")
+        else:
+            verdict = "**no**"
+        shown = " | ".join(f"{r.values[b]:.5g}" if b in r.values else "–" for b in backends)
+        quantity = f"{r.quantity} (theory)" if r.quantity in THEORY else r.quantity
+        lines.append(f"| {r.case} | {quantity} | {shown} | {_fmt(spread * 100, '.2f')} % | {verdict} |")
+    if notes:
+        lines += ["", "Known differences of the contact laws (by construction, not bugs):", ""]
+        lines += [f"{n}. {text}" for text, n in notes.items()]
+    for case, backend, error in micro_errors(micro_checks or {}):
+        lines.append(f"\nMICRO CHECK FAILED: {case} on {backend}: {error}")
     for o in outcomes:
         for reason in o.failures:
             lines.append(f"\nFAILED: {o.case.label} on {o.case.backend}: {reason}")
@@ -56,69 +150,134 @@ def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], mic
 
 
 def crosscheck_figure(outcomes: list[CaseOutcome], folder: Path) -> list[str]:
-    """C–AIF plane, one colour per backend and one marker per point, 2u error ellipses; and the
-    mean peaks per step."""
-    backends = sorted({o.case.backend for o in outcomes})
+    """Left: the C–AIF plane, one marker (shape and colour) per backend, the pooled locus of each
+    point with its ±2u error ellipse, the seeds' own loci as small dots; points labelled P0, P1….
+    Right: the mean peak τ per step (± seed s.d.) against σ."""
+    backends = sorted({o.case.backend for o in outcomes})  # the same style for a backend in every run
     points = list(dict.fromkeys(o.case.label for o in outcomes))
     colors = {b: plt.cm.tab10(i) for i, b in enumerate(backends)}
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5))
+    markers = {b: MARKERS[i % len(MARKERS)] for i, b in enumerate(backends)}
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5.2))
+    drawn = set()
     for o in outcomes:
         s = o.summary()
         if "cohesion" not in s:
             continue
-        c, m = colors[o.case.backend], MARKERS[points.index(o.case.label) % len(MARKERS)]
-        ax.plot(s["aif"], s["cohesion"] / 1e3, m, color=c, ms=8)
-        ax.add_patch(Ellipse((s["aif"], s["cohesion"] / 1e3), 4 * s["aif_u"], 4 * s["cohesion_u"] / 1e3,
-                             fill=False, color=c, lw=1.2))
-        for r in o.good:
-            ax.plot(r.yield_locus().aif_deg, r.yield_locus().cohesion / 1e3, ".", color=c, ms=4, alpha=0.6)
+        b = o.case.backend
+        c, m = colors[b], markers[b]
+        x, y = s["aif"], s["cohesion"] / 1e3
+        ax.plot(x, y, m, color=c, ms=9, mec="k", mew=0.6, zorder=3, label=None if b in drawn else b)
+        w, h = 4 * s["aif_u"], 4 * s["cohesion_u"] / 1e3
+        if math.isfinite(w) and math.isfinite(h):
+            ax.add_patch(Ellipse((x, y), w, h, fill=True, fc=(*c[:3], 0.12), ec=c, lw=1.4, zorder=2))
+        for loc in o.seed_loci():
+            ax.plot(loc.aif_deg, loc.cohesion / 1e3, ".", color=c, ms=4, alpha=0.7, zorder=2)
+        if len(points) > 1:
+            ax.annotate(o.case.label.split(":")[0], (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
         sig = o.good[0].target_normal_stress
-        mean = [s[f"peak_{x:.0f}"] / 1e3 for x in sig]
-        sd = [s[f"peak_{x:.0f}_sd"] / 1e3 if math.isfinite(s[f"peak_{x:.0f}_sd"]) else 0.0 for x in sig]
-        ax2.errorbar(sig / 1e3, mean, yerr=sd, fmt=m + "-", color=c, capsize=3, ms=6)
-    for b in backends:
-        ax.plot([], [], "s", color=colors[b], label=b)
-    for j, p in enumerate(points):
-        ax.plot([], [], MARKERS[j % len(MARKERS)], color="k", label=p)
+        mean = [s[f"peak_{v:.0f}"] / 1e3 for v in sig]
+        sd = [s[f"peak_{v:.0f}_sd"] / 1e3 if math.isfinite(s[f"peak_{v:.0f}_sd"]) else 0.0 for v in sig]
+        label = b if len(points) == 1 else f"{b}, {o.case.label.split(':')[0]}"
+        ax2.errorbar(sig / 1e3, mean, yerr=sd, fmt=m, color=c, capsize=3, ms=7, mec="k", mew=0.6, label=label)
+        grid = np.linspace(0.0, float(np.max(sig)) * 1.05, 50)
+        line = (s["cohesion"] + grid * math.tan(math.radians(s["aif"]))) / 1e3
+        ax2.plot(grid / 1e3, line, "--", color=c, lw=1.2)
+        if len(points) > 1:
+            ax2.annotate(o.case.label.split(":")[0], (grid[-1] / 1e3, line[-1]), textcoords="offset points",
+                         xytext=(3, 0), fontsize=8, va="center", color=c)
+        drawn.add(b)
+    ax.autoscale_view()
     ax.set_xlabel("AIF [°]")
     ax.set_ylabel("C [kPa]")
-    ax.set_title("Pooled locus per backend (ellipse: ±2u); dots: single seeds", fontsize=9)
+    ax.set_title("Pooled yield locus per backend: ellipse ±2u (u = max(regr. s.e., seed s.d./√n)); "
+                 "dots: single seeds", fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    if drawn:
+        ax.legend(fontsize=8, title="backend", title_fontsize=8)
     ax2.set_xlabel("normal stress σ [kPa]")
     ax2.set_ylabel("peak shear stress τ [kPa] (mean ± seed s.d.)")
+    ax2.set_title("Peak τ of each shear step (mean ± seed s.d.); dashed: fitted yield locus", fontsize=9)
     ax2.grid(alpha=0.3)
+    if drawn:
+        ax2.legend(fontsize=8)
+    if len(points) > 1:
+        fig.text(0.01, 0.01, "; ".join(points), fontsize=7, ha="left", va="bottom")
     return _save(fig, folder, "crosscheck")
 
 
 def converge_markdown(outcomes: list[CaseOutcome], results: list[Verdict]) -> str:
+    """The convergence study's Markdown page: the verdict per knob, the table per setting, and
+    which settings lie within the finest's uncertainty."""
     lines = ["# Convergence study", ""]
     for v in results:
         lines += [f"**{v.sentence()}.**", ""]
-    lines += [HEAD.replace("| case |", "| setting |").rstrip() + "", *[outcome_row(o) for o in outcomes]]
-    lines += ["", "| setting | particles | within the finest's uncertainty |", "|---|---|---|"]
+    lines += ["Within: |C − C_finest| ≤ 2·√(u² + u_finest²) and the same for AIF, u = max(regression s.e., "
+              "seed s.d./√n).", "", table_head(outcomes, first="setting"), *[outcome_row(o) for o in outcomes]]
+    lines += ["", "| setting | particles | cell diameter / particle diameter | time step [s] | "
+                  "inertial number I of the shear steps | within the finest's uncertainty |",
+              "|---|---|---|---|---|---|"]
+    by_coords = {tuple(o.case.coords.items()): o for o in outcomes}
     for v in results:
         for value, s, within in v.rows:
-            lines.append(f"| {v.knob}={value:g} | {_fmt(s.get('particles', math.nan))} | {'yes' if within else 'no'} |")
+            o = by_coords.get(((v.knob, value),))
+            spec = o.case.spec if o is not None else None
+            inertial = ", ".join(f"{i:.2g}" for i in inertial_numbers(spec)) if spec is not None else "–"
+            lines.append(f"| {v.knob}={value:g} | {_fmt(s.get('particles', math.nan))} | "
+                         f"{_fmt(spec.particles_per_diameter if spec else math.nan, '.1f')} | "
+                         f"{_fmt(spec.time_step if spec else math.nan, '.3g')} | {inertial} | "
+                         f"{'yes' if within else 'no'}{' (finest)' if value == v.finest else ''} |")
+    for o in outcomes:
+        for reason in o.failures:
+            lines.append(f"\nFAILED: {o.case.label}: {reason}")
     return "\n".join(lines) + "\n"
 
 
 def converge_figure(outcomes: list[CaseOutcome], results: list[Verdict], folder: Path) -> list[str]:
-    """C and AIF (±2u) against each knob, the finest's band shaded."""
-    fig, axes = plt.subplots(len(results), 2, figsize=(11, 3.6 * len(results)), squeeze=False)
+    """One row per knob: C and AIF (±2u) against the knob with the finest setting's ±2u band
+    shaded; and the yield loci (peaks and fitted lines) of every setting."""
+    fig, axes = plt.subplots(len(results), 3, figsize=(15, 4.4 * len(results)), squeeze=False)
+    by_coords = {tuple(o.case.coords.items()): o for o in outcomes}
     for row, v in zip(axes, results):
         xs = [value for value, _, _ in v.rows]
+        fine = [s for value, s, _ in v.rows if value == v.finest][0]
         for ax, q, scale, unit in ((row[0], "cohesion", 1e-3, "C [kPa]"), (row[1], "aif", 1.0, "AIF [°]")):
             ys = [s.get(q, math.nan) * scale for _, s, _ in v.rows]
             es = [2 * s.get(f"{q}_u", math.nan) * scale for _, s, _ in v.rows]
-            ax.errorbar(xs, ys, yerr=es, fmt="o-", capsize=3)
-            fine = [s for value, s, _ in v.rows if value == v.finest][0]
-            if q in fine:
+            ax.errorbar(xs, ys, yerr=es, fmt="o-", capsize=3, color="tab:blue", label="±2u")
+            ok = [(value, s.get(q, math.nan) * scale) for value, s, within in v.rows if within and value != v.finest]
+            if ok:
+                ax.plot(*zip(*ok), "o", ms=12, mfc="none", mec="tab:green", mew=1.6,
+                        label="C and AIF within the finest's 2·√(u² + u_f²)")
+            if q in fine and math.isfinite(fine[f"{q}_u"]):
                 ax.axhspan((fine[q] - 2 * fine[f"{q}_u"]) * scale, (fine[q] + 2 * fine[f"{q}_u"]) * scale,
                            color="tab:green", alpha=0.15, label="finest ± 2u")
-            ax.set_xlabel(v.knob)
+            ax.set_title(f"{unit.split()[0]} against the {v.knob.replace('_', ' ')}", fontsize=9)
+            ax.set_xticks(xs)
+            ax.set_xlabel(v.knob.replace("_", " "))
             ax.set_ylabel(unit)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
-        row[0].set_title(v.sentence(), fontsize=8, loc="left")
-    return _save(fig, folder, "converge")
+        ax = row[2]
+        colors = plt.cm.viridis(np.linspace(0.0, 0.85, max(len(v.rows), 1)))
+        for (value, s, _), c in zip(v.rows, colors):
+            o = by_coords.get(((v.knob, value),))
+            if o is None or not o.good or "cohesion" not in s:
+                continue
+            sig = o.good[0].target_normal_stress
+            ax.plot(np.concatenate([r.target_normal_stress for r in o.good]) / 1e3,
+                    np.concatenate([r.peak_shear_stress for r in o.good]) / 1e3, "o", color=c, ms=5,
+                    label=f"{value:g}")
+            grid = np.linspace(0.0, float(np.max(sig)) * 1.05, 50)
+            ax.plot(grid / 1e3, (s["cohesion"] + grid * math.tan(math.radians(s["aif"]))) / 1e3, "-", color=c, lw=1.2)
+        ax.set_xlabel("normal stress σ [kPa]")
+        ax.set_ylabel("peak shear stress τ [kPa]")
+        ax.set_title("Yield loci: peaks of every seed and fitted line", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, title=v.knob.replace("_", " "), title_fontsize=8)
+        note = row[0].annotate(textwrap.fill(v.sentence() + ".", 150), (0.0, 1.0), xycoords="axes fraction",
+                               xytext=(0, 26), textcoords="offset points", fontsize=10, fontweight="bold",
+                               va="bottom")
+        note.set_in_layout(False)
+    fig.tight_layout(h_pad=6.0)
+    fig.subplots_adjust(top=1.0 - 0.75 / (4.4 * len(results)))
+    return _save(fig, folder, "converge", layout=False)

@@ -37,9 +37,9 @@ def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: f
     LIGGGHTS with the shear test's contact model (hertz, tangential history, EPSD2).
 
     Returns:
-        dict with ``contact_time`` (s, measured: steps with overlap × Δt), ``hertz_contact_time``
-        (s, theory for e = 1), ``restitution`` (measured −v_rel,out / v_rel,in), ``energy_change``
-        ((KE_out − KE_in)/KE_in) and ``dt`` (s).
+        dict with ``contact_time`` (s, measured: steps with overlap × Δt), ``peak_overlap`` (m,
+        largest overlap), ``hertz_contact_time`` (s, theory for e = 1), ``restitution`` (measured
+        −v_rel,out / v_rel,in), ``energy_change`` ((KE_out − KE_in)/KE_in) and ``dt`` (s).
     """
     t_c = hertz_contact_time(radius, youngs_modulus, poisson_ratio, density, speed)
     dt = t_c / steps_per_contact
@@ -75,7 +75,8 @@ def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: f
     distance = rows[:, 1]
     in_contact = int(np.sum(distance < 2.0 * radius))
     v_out = float(rows[-1, 2])
-    return {"contact_time": in_contact * dt, "hertz_contact_time": t_c, "restitution": v_out / speed,
+    return {"contact_time": in_contact * dt, "peak_overlap": float(2.0 * radius - distance.min()),
+            "hertz_contact_time": t_c, "restitution": v_out / speed,
             "energy_change": (v_out**2 - speed**2) / speed**2, "dt": dt}
 
 

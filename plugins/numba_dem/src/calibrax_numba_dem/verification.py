@@ -38,9 +38,9 @@ def _two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: 
     """Head-on impact of two equal spheres at relative speed ``speed`` (m/s), no gravity.
 
     Returns:
-        dict with ``contact_time`` (s, measured), ``hertz_contact_time`` (s, theory for e = 1),
-        ``restitution`` (measured −v_rel,out / v_rel,in), ``energy_change`` ((KE_out − KE_in)/KE_in)
-        and ``dt`` (s).
+        dict with ``contact_time`` (s, measured), ``peak_overlap`` (m, largest overlap),
+        ``hertz_contact_time`` (s, theory for e = 1), ``restitution`` (measured −v_rel,out / v_rel,in),
+        ``energy_change`` ((KE_out − KE_in)/KE_in) and ``dt`` (s).
     """
     t_c = hertz_contact_time(radius, youngs_modulus, poisson_ratio, density, speed)
     dt = t_c / steps_per_contact
@@ -52,17 +52,19 @@ def _two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: 
     ke0 = sys.kinetic_energy()
     in_contact = 0
     touched = False
+    peak = 0.0
     for _ in range(20 * steps_per_contact):
         sys.advance(1)
         overlap = 2.0 * radius - (sys.x[1, 0] - sys.x[0, 0])
         if overlap > 0.0:
             in_contact += 1
             touched = True
+            peak = max(peak, overlap)
         elif touched:
             break
     v_out = sys.v[1, 0] - sys.v[0, 0]
-    return {"contact_time": in_contact * dt, "hertz_contact_time": t_c, "restitution": v_out / speed,
-            "energy_change": (sys.kinetic_energy() - ke0) / ke0, "dt": dt}
+    return {"contact_time": in_contact * dt, "peak_overlap": peak, "hertz_contact_time": t_c,
+            "restitution": v_out / speed, "energy_change": (sys.kinetic_energy() - ke0) / ke0, "dt": dt}
 
 
 def _rest_overlap(radius: float, mass: float, e_star: float, g: float) -> float:

@@ -1,8 +1,8 @@
 # calibrax-yade verification: head-on impact of two equal spheres (no gravity), run as
 #     yade -n -j 1 -x two_spheres.py PARAMS.json
 # Fixed file; every number comes from the JSON parameter file. Writes result.json next to it:
-# contact time (steps with overlap > 0, times dt), relative velocities in and out, kinetic energies,
-# and the contact's YADE stiffness coefficients (kno, kso) for checking the conversion.
+# contact time (steps with overlap > 0, times dt), peak overlap, relative velocities in and out,
+# kinetic energies, and the contact's YADE coefficients (kno, kso, betan) for checking the conversion.
 import json
 import math
 import os
@@ -41,23 +41,25 @@ def kinetic():
 ke0 = kinetic()
 in_contact = 0
 touched = False
-kno = kso = float("nan")
+peak = 0.0
+kno = kso = betan = float("nan")
 for _ in range(int(P["max_steps"])):
     O.step()
     overlap = 2.0 * r - (O.bodies[b].state.pos[0] - O.bodies[a].state.pos[0])
     if overlap > 0.0:
         in_contact += 1
         touched = True
+        peak = max(peak, overlap)
         if not math.isfinite(kno):
             for I in O.interactions:
                 if I.isReal:
-                    kno, kso = I.phys.kno, I.phys.kso
+                    kno, kso, betan = I.phys.kno, I.phys.kso, I.phys.betan
     elif touched:
         break
 v_out = O.bodies[b].state.vel[0] - O.bodies[a].state.vel[0]
 import yade.config
 
-out = {"contact_steps": in_contact, "v_out": v_out, "ke0": ke0, "ke1": kinetic(), "kno": kno, "kso": kso,
+out = {"contact_steps": in_contact, "v_out": v_out, "ke0": ke0, "ke1": kinetic(), "peak_overlap": peak, "kno": kno, "kso": kso, "betan": betan,
        "yade_version": yade.config.version}
 tmp = os.path.join(WD, "result.json.tmp")
 with open(tmp, "w") as fh:

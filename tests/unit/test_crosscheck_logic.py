@@ -1,0 +1,62 @@
+"""The cross-check's micro-level agreement rule and the converge option names (no simulator)."""
+
+from __future__ import annotations
+
+import pytest
+
+from calibrax.core.convergence import OPTIONS, KNOBS
+from calibrax.core.crosscheck import MICRO_TOLERANCE, micro_agreement, micro_errors
+
+
+def rows_by_quantity(rows):
+    return {(r.case, r.quantity): r for r in rows}
+
+
+def test_values_within_two_percent_of_their_mean_agree():
+    checks = {"collision e=1": {"a": {"contact_time": 1.00e-5, "dt": 1e-8}, "b": {"contact_time": 1.01e-5, "dt": 2e-8},
+                                "c": {"contact_time": 0.995e-5, "dt": 3e-8}}}
+    rows = rows_by_quantity(micro_agreement(checks))
+    assert rows[("collision e=1", "contact_time")].agree
+    assert ("collision e=1", "dt") not in rows  # bookkeeping, not compared
+
+
+def test_a_spread_beyond_two_percent_disagrees():
+    slower = 4.905 * (1 + 2.5 * MICRO_TOLERANCE)
+    checks = {"sliding on base": {"a": {"deceleration": 4.905}, "b": {"deceleration": slower}}}
+    (row,) = micro_agreement(checks)
+    assert not row.agree and row.known == ()
+
+
+def test_energy_change_near_zero_is_compared_on_the_impact_energy_scale():
+    checks = {"collision e=1": {"a": {"energy_change": 3e-7}, "b": {"energy_change": -4e-6}}}
+    (row,) = micro_agreement(checks)
+    assert row.agree
+
+
+def test_a_documented_difference_is_flagged_and_the_others_checked():
+    known = {"yade": {("rolling_resistance", "torque"): "facet limit 0.75 μr r m g"}}
+    checks = {"rolling resistance": {"numba_dem": {"torque": 4.04e-8}, "liggghts": {"torque": 4.04e-8},
+                                     "yade": {"torque": 3.03e-8}}}
+    (row,) = micro_agreement(checks, known)
+    assert not row.agree and row.known == ("yade",) and row.others_agree
+    checks["rolling resistance"]["liggghts"]["torque"] = 5e-8
+    (row,) = micro_agreement(checks, known)
+    assert row.known == ("yade",) and not row.others_agree
+
+
+def test_an_undocumented_difference_is_not_excused():
+    known = {"yade": {("rolling_resistance", "torque"): "…"}}
+    checks = {"collision e=material": {"numba_dem": {"contact_time": 1.2e-5}, "yade": {"contact_time": 1.3e-5}}}
+    (row,) = micro_agreement(checks, known)
+    assert not row.agree and row.known == ()
+
+
+def test_a_failed_micro_case_is_reported():
+    checks = {"collision e=1": {"a": {"contact_time": 1e-5}, "b": {"error": "RuntimeError: no yade"}}}
+    assert micro_agreement(checks) == []
+    assert micro_errors(checks) == [("collision e=1", "b", "RuntimeError: no yade")]
+
+
+@pytest.mark.parametrize("knob", sorted(KNOBS))
+def test_every_converge_knob_names_its_command_line_option(knob):
+    assert OPTIONS[knob].startswith("--")
