@@ -29,11 +29,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.packing import initial_packing
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.errors import SpecError
 
 from . import mesh as meshes
-from .packing import initial_state
 
 __all__ = ["num", "integer", "ScriptPlan", "write_inputs", "servo_gains", "SCRIPT_NAME", "DATA_NAME"]
 
@@ -146,7 +146,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     per = max(1, int(round(n.sample_interval / dt)))
 
     # ---------------------------------------------------------------- particles (numba_dem's)
-    x, radii, v = initial_state(spec)
+    radii, x, v = initial_packing(spec)
     r_max = float(radii.max())
     h0 = float(np.max(x[:, 2] + radii))
     z_park = h0 + g.blade_height + 2.0 * d  # head's parking height: blade tips above the column

@@ -1,4 +1,4 @@
-"""The FT4 cell as YADE facets, and the seeded initial packing (plugin side, plain numpy).
+"""The FT4 cell as YADE facets (plugin side, plain numpy).
 
 Conventions are those of the numba_dem backend (``calibrax_numba_dem.geometry``) and the LIGGGHTS
 meshes (``calibrax_liggghts.mesh``), so that the three backends simulate the same cell:
@@ -15,8 +15,8 @@ meshes (``calibrax_liggghts.mesh``), so that the three backends simulate the sam
 YADE facets are two-sided, so blades and ribs are single plates (two triangles each). All
 triangles are returned as arrays of shape (n, 3, 3), m.
 
-The packing is the numba_dem one, draw for draw: same seed → the same radii, the same jittered
-lattice column and the same initial velocities as numba_dem.
+The initial packing is the core's (:func:`calibrax.core.packing.initial_packing`), shared by all
+backends: same spec and seed → the same particles as numba_dem and LIGGGHTS.
 """
 
 from __future__ import annotations
@@ -24,10 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from calibrax.core.sheartest import ShearCellSpec
 
-__all__ = ["segments_for", "base_mesh", "ribs_mesh", "vessel_mesh", "head_mesh", "lattice_column",
-           "initial_state"]
+__all__ = ["segments_for", "base_mesh", "ribs_mesh", "vessel_mesh", "head_mesh"]
 
 
 def segments_for(radius: float, particle_radius: float) -> int:
@@ -99,50 +97,3 @@ def head_mesh(head_radius: float, hub_radius: float, blade_count: int, blade_hei
     blades = np.concatenate([_plate(2.0 * math.pi * k / blade_count, hub_radius, head_radius, -blade_height, 0.0)
                              for k in range(blade_count)])
     return disc, blades
-
-
-def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Generator,
-                   spacing_factor: float = 1.12, jitter: float = 1.0) -> np.ndarray:
-    """Positions (N, 3), m, of spheres with radii ``radii`` (N,) stacked in a loose, jittered square
-    lattice column on z = 0 inside the vessel (identical to numba_dem's ``lattice_column``)."""
-    n = radii.size
-    r_max = float(radii.max())
-    a = 2.0 * r_max * spacing_factor
-    free = 0.5 * (a - 2.0 * r_max)
-    pts: list[tuple[float, float, float]] = []
-    layer = 0
-    while len(pts) < n:
-        offx, offy = rng.uniform(0.0, a, size=2)
-        z = r_max * 1.02 + layer * a
-        m = int(math.ceil(vessel_radius / a)) + 1
-        for iy in range(-m, m + 1):
-            for ix in range(-m, m + 1):
-                px, py = ix * a + offx, iy * a + offy
-                if math.hypot(px, py) <= vessel_radius - r_max * 1.02 - free:
-                    pts.append((px, py, z))
-        layer += 1
-    pos = np.asarray(pts[:n], dtype=float)
-    pos += rng.uniform(-jitter * free, jitter * free, size=pos.shape)
-    return pos
-
-
-def initial_state(spec: ShearCellSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(radii (N,), positions (N, 3), velocities (N, 3)) of the particles before pouring, drawn
-    from ``spec.numerics.seed`` in the same order as numba_dem."""
-    rng = np.random.default_rng(spec.numerics.seed)
-    n = spec.particle_count
-    radii = spec.size_distribution.sample(spec.radius, n, rng)
-    radii = radii[rng.permutation(n)]
-    rc = spec.geometry.vessel_diameter / 2.0
-    x = lattice_column(radii, rc, rng)
-    v = rng.normal(0.0, 0.1, size=x.shape)
-    # the lattice's jitter can push a bottom-layer sphere up to ~0.1 r into the base and an outer
-    # one ~0.03 r into the wall; a Hertz overlap that deep launches it out of the column, so move
-    # such spheres back inside (the only change from numba_dem's initial state)
-    rho = np.hypot(x[:, 0], x[:, 1])
-    limit = rc - 1.001 * radii
-    scale = np.where(rho > limit, limit / np.maximum(rho, 1e-300), 1.0)
-    x[:, 0] *= scale
-    x[:, 1] *= scale
-    x[:, 2] = np.maximum(x[:, 2], 1.001 * radii)
-    return radii, x, v

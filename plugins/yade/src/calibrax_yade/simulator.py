@@ -36,13 +36,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.packing import initial_packing
 from calibrax.core.sheartest import (Provenance, ShearCellSpec, ShearTestResult, StepRecord,
                                      shear_stress_from_torque)
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
 from .contact import contact_params
-from .geometry import base_mesh, head_mesh, initial_state, ribs_mesh, vessel_mesh
+from .geometry import base_mesh, head_mesh, ribs_mesh, vessel_mesh
 from .runner import find_yade, run_yade, script_path, write_params, yade_version
 
 __all__ = ["YadeSimulator", "build_params", "SERVO_SUBSTEPS"]
@@ -69,7 +70,7 @@ def build_params(spec: ShearCellSpec) -> dict:
     """Every number the YADE script needs (SI units), from a validated spec."""
     g, m, p = spec.geometry, spec.material, spec.procedure
     cp = contact_params(spec)
-    radii, x, v = initial_state(spec)
+    radii, x, v = initial_packing(spec)
     rc = g.vessel_diameter / 2.0
     r_ref = float(np.min(radii))
     z_top = float(max(x[:, 2].max(), g.fill_height)) + 12.0 * float(radii.max()) + g.blade_height
