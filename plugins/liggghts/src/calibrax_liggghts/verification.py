@@ -13,21 +13,13 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.analytic import hertz_contact_time, sliding_deceleration, sliding_time
 
 from . import mesh as meshes
 from .script import integer, num
 from .simulator import run_liggghts
 
 __all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
-
-
-def hertz_contact_time(radius: float, youngs_modulus: float, poisson_ratio: float, density: float,
-                       speed: float) -> float:
-    """Duration of an elastic Hertz impact of two equal spheres at relative speed ``speed`` (m/s):
-    t_c = 2.87 (m*² / (R* E*² v))^(1/5), s, with m* = m/2, R* = R/2, E* = E / (2(1 − ν²))."""
-    m = 4.0 / 3.0 * math.pi * radius**3 * density
-    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
-    return 2.87 * ((m / 2.0) ** 2 / (radius / 2.0 * e_star**2 * speed)) ** 0.2
 
 
 def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
@@ -133,7 +125,7 @@ def sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 0
     least-squares slope of v(t) over the middle 80 % of the sliding phase), ``expected`` (μs·g)
     and ``sliding_time`` (s, theory 2 v0 / (7 μs g)).
     """
-    t_slide = 2.0 * speed / (7.0 * friction * g)
+    t_slide = sliding_time(speed, friction, g)
     every = max(1, int(t_slide / dt / 200))
     with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
@@ -142,10 +134,7 @@ def sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 0
                                density=density, restitution=restitution, friction=friction, rolling_friction=0.0,
                                g=g, dt=dt, velocity=(speed, 0.0, 0.0), spin=(0.0, 0.0, 0.0),
                                nsteps=int(math.ceil(t_slide / dt)), every=every)
-    t = rows[:, 0] * dt
-    sel = (t > 0.1 * t_slide) & (t < 0.9 * t_slide)
-    slope = np.polyfit(t[sel], rows[sel, 1], 1)[0]
-    return {"deceleration": -float(slope), "expected": friction * g, "sliding_time": t_slide}
+    return sliding_deceleration(rows[:, 0] * dt, rows[:, 1], speed, friction, g)
 
 
 def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius: float = 0.9e-3,

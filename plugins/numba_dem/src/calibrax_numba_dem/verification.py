@@ -10,21 +10,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from calibrax.core.analytic import hertz_contact_time, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params, numba_threads
 
 __all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
            "resting_bed_base_load"]
-
-
-def hertz_contact_time(radius: float, youngs_modulus: float, poisson_ratio: float, density: float,
-                       speed: float) -> float:
-    """Duration of an elastic Hertz impact of two equal spheres at relative speed ``speed`` (m/s):
-    t_c = 2.87 (m*² / (R* E*² v))^(1/5), s."""
-    m = 4.0 / 3.0 * math.pi * radius**3 * density
-    e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
-    return 2.87 * ((m / 2.0) ** 2 / (radius / 2.0 * e_star**2 * speed)) ** 0.2
 
 
 def _params(youngs_modulus: float, poisson_ratio: float, restitution: float, dt: float, **extra: float) -> np.ndarray:
@@ -86,7 +78,7 @@ def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 
     sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
                     _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
                             mu_base=friction, mu=friction), v=np.array([[speed, 0.0, 0.0]]))
-    t_slide = 2.0 * speed / (7.0 * friction * g)
+    t_slide = sliding_time(speed, friction, g)
     chunk = max(1, int(t_slide / dt / 200))
     ts, vs = [], []
     t = 0.0
@@ -95,10 +87,7 @@ def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 
         t += chunk * dt
         ts.append(t)
         vs.append(sys.v[0, 0])
-    ts_a, vs_a = np.asarray(ts), np.asarray(vs)
-    sel = (ts_a > 0.1 * t_slide) & (ts_a < 0.9 * t_slide)
-    slope = np.polyfit(ts_a[sel], vs_a[sel], 1)[0]
-    return {"deceleration": -float(slope), "expected": friction * g, "sliding_time": t_slide}
+    return sliding_deceleration(np.asarray(ts), np.asarray(vs), speed, friction, g)
 
 
 def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius: float = 0.9e-3,
