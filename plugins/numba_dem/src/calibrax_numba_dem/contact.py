@@ -3,9 +3,13 @@
 
 One function serves particle–particle and particle–wall contacts (a wall is infinite radius and
 mass: R* = r_i, m* = m_i). Sign convention: ``n`` is the unit normal pointing from the other body
-to particle i; the returned force and torque act on particle i. Computing a pair from either side
-gives exactly opposite forces and torques (every operation is sign-symmetric), so full neighbour
-lists reproduce Newton's third law bit for bit.
+to particle i; the force F acts on particle i and −F on the other body. The torques follow from
+the returned parts: on i it is −r_i (n × F_t) + M, on a particle j it is −r_j (n × F_t) − M, so a
+pair computed once gives exactly opposite forces and rolling torques (Newton's third law bit for
+bit).
+
+A contact's history (tangential spring, m; rolling torque, N·m) is one row ``p`` of two arrays of
+shape (P, 3): the pair's slot in the half neighbour list, or ``i · WALL_SLOTS + slot`` for walls.
 """
 
 from __future__ import annotations
@@ -31,34 +35,103 @@ def effective_moduli(youngs_modulus: float, poisson_ratio: float) -> tuple[float
     return e / (2.0 * (1.0 - nu * nu)), e / (4.0 * (2.0 - nu) * (1.0 + nu))
 
 
-@njit(cache=True, fastmath=False)
-def contact(nx, ny, nz, delta, reff, meff, ri,
+@njit(cache=True, inline="always")
+def tangential_spring(nx, ny, nz, vtx, vty, vtz, sx, sy, sz, kt, gt, flim, dt):
+    """Mindlin spring with history and Coulomb limit.
+
+    Args:
+        n*: unit normal. vt*: tangential relative velocity at the contact point, m/s.
+        s*: the spring's displacement from the previous step, m. kt: N/m. gt: damping, N·s/m
+            (negative, LIGGGHTS' sign). flim: μs|F_n|, N. dt: s.
+
+    Returns:
+        (Ftx, Fty, Ftz, sx, sy, sz): tangential force on i (N) and the updated spring (m), kept in
+        the tangent plane with its length preserved, and shortened to the Coulomb limit on sliding.
+    """
+    sx += vtx * dt
+    sy += vty * dt
+    sz += vtz * dt
+    old2 = sx * sx + sy * sy + sz * sz
+    sdn = sx * nx + sy * ny + sz * nz
+    sx -= sdn * nx
+    sy -= sdn * ny
+    sz -= sdn * nz
+    new2 = sx * sx + sy * sy + sz * sz
+    if new2 > 0.0 and sdn != 0.0:
+        sc = math.sqrt(old2 / new2)
+        sx *= sc
+        sy *= sc
+        sz *= sc
+    ftx = -(kt * sx + gt * vtx)
+    fty = -(kt * sy + gt * vty)
+    ftz = -(kt * sz + gt * vtz)
+    ft2 = ftx * ftx + fty * fty + ftz * ftz
+    if ft2 > flim * flim:
+        ratio = flim / math.sqrt(ft2)
+        ftx *= ratio
+        fty *= ratio
+        ftz *= ratio
+        if kt > 0.0:
+            sx = -(ftx + gt * vtx) / kt
+            sy = -(fty + gt * vty) / kt
+            sz = -(ftz + gt * vtz) / kt
+    return ftx, fty, ftz, sx, sy, sz
+
+
+@njit(cache=True, inline="always")
+def rolling_spring(nx, ny, nz, wrx, wry, wrz, mx, my, mz, kr, mlim, dt):
+    """EPSD2 rolling torque: elastic spring k_r on the relative rolling rotation, limited at mlim.
+
+    Args:
+        n*: unit normal. wr*: ω_i − ω_other, rad/s. m*: the torque of the previous step, N·m.
+        kr: N·m/rad. mlim: μr R*|F_n|, N·m. dt: s.
+
+    Returns:
+        (Mx, My, Mz): the rolling torque on i, N·m (also the new history).
+    """
+    wdn = wrx * nx + wry * ny + wrz * nz
+    mx -= kr * (wrx - wdn * nx) * dt
+    my -= kr * (wry - wdn * ny) * dt
+    mz -= kr * (wrz - wdn * nz) * dt
+    mdn = mx * nx + my * ny + mz * nz
+    mx -= mdn * nx
+    my -= mdn * ny
+    mz -= mdn * nz
+    mm2 = mx * mx + my * my + mz * mz
+    if mm2 > mlim * mlim:
+        ratio = mlim / math.sqrt(mm2)
+        mx *= ratio
+        my *= ratio
+        mz *= ratio
+    return mx, my, mz
+
+
+@njit(cache=True, inline="always")
+def contact(nx, ny, nz, delta, reff, meff,
             vrx, vry, vrz, rwx, rwy, rwz, wrx, wry, wrz,
-            e_star, g_star, beta, mu, mur, coh, dt,
-            hist, rhist, a, b):
-    """Force and torque on particle i from one contact; updates its history in place.
+            e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, p):
+    """Force on particle i from one contact, and the parts of the torques; updates the history.
 
     Args:
         nx, ny, nz: unit normal from the other body to i.
-        delta: overlap, m (> 0). reff: R*, m. meff: m*, kg. ri: radius of i, m.
+        delta: overlap, m (> 0). reff: R*, m. meff: m*, kg.
         vr*: v_i − v_other at the contact's translational part, m/s (a wall's surface velocity
             is already subtracted).
         rw*: r_i ω_i + r_j ω_j (walls: r_i ω_i), m/s.
         wr*: ω_i − ω_j (walls: ω_i − ω_wall), rad/s, for rolling resistance.
         e_star, g_star: Pa. beta: damping factor. mu, mur: sliding and rolling friction.
         coh: SJKR cohesion energy density, J/m³. dt: s.
-        hist, rhist: arrays of shape (..., ..., 3): tangential spring displacement (m) and rolling
-            torque (N·m) of this directed contact, at hist[a, b].
+        hist, rhist: shape (P, 3): tangential spring displacement (m) and rolling torque (N·m);
+            this contact's row is ``p``.
 
     Returns:
-        (Fx, Fy, Fz, Tx, Ty, Tz, Fn): force (N) and torque (N·m) on i, and the normal force (N).
+        (Fx, Fy, Fz, Qx, Qy, Qz, Mx, My, Mz, Fn): force on i (N); Q = n × F_t (N), so that the
+        tangential torque on i is −r_i Q and on a particle j −r_j Q; rolling torque M on i (N·m),
+        −M on j; and the normal force (N).
     """
     sq = math.sqrt(reff * delta)
     kn = 4.0 / 3.0 * e_star * sq
-    sn = 2.0 * e_star * sq
-    kt = 8.0 * g_star * sq
-    gn = -2.0 * SQRT_5_6 * beta * math.sqrt(sn * meff)
-    gt = -2.0 * SQRT_5_6 * beta * math.sqrt(kt * meff)
+    gn = -2.0 * SQRT_5_6 * beta * math.sqrt(2.0 * e_star * sq * meff)
     vn = vrx * nx + vry * ny + vrz * nz
     fn = kn * delta - gn * vn
     if coh > 0.0:
@@ -66,89 +139,54 @@ def contact(nx, ny, nz, delta, reff, meff, ri,
     fx = fn * nx
     fy = fn * ny
     fz = fn * nz
-    tx = 0.0
-    ty = 0.0
-    tz = 0.0
+    qx = 0.0
+    qy = 0.0
+    qz = 0.0
     if mu > 0.0:
-        # tangential relative velocity at the contact point
-        cx = rwy * nz - rwz * ny
-        cy = rwz * nx - rwx * nz
-        cz = rwx * ny - rwy * nx
-        vtx = vrx - vn * nx - cx
-        vty = vry - vn * ny - cy
-        vtz = vrz - vn * nz - cz
-        sx = hist[a, b, 0] + vtx * dt
-        sy = hist[a, b, 1] + vty * dt
-        sz = hist[a, b, 2] + vtz * dt
-        # keep the spring in the tangent plane, preserving its length
-        old = math.sqrt(sx * sx + sy * sy + sz * sz)
-        sdn = sx * nx + sy * ny + sz * nz
-        sx -= sdn * nx
-        sy -= sdn * ny
-        sz -= sdn * nz
-        new = math.sqrt(sx * sx + sy * sy + sz * sz)
-        if new > 0.0:
-            sc = old / new
-            sx *= sc
-            sy *= sc
-            sz *= sc
-        ftx = -(kt * sx + gt * vtx)
-        fty = -(kt * sy + gt * vty)
-        ftz = -(kt * sz + gt * vtz)
-        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
-        flim = mu * abs(fn)
-        if ft > flim:
-            if ft > 0.0:
-                ratio = flim / ft
-                ftx *= ratio
-                fty *= ratio
-                ftz *= ratio
-            if kt > 0.0:
-                sx = -(ftx + gt * vtx) / kt
-                sy = -(fty + gt * vty) / kt
-                sz = -(ftz + gt * vtz) / kt
-        hist[a, b, 0] = sx
-        hist[a, b, 1] = sy
-        hist[a, b, 2] = sz
+        kt = 8.0 * g_star * sq
+        # γ_t = −2√(5/6) β √(k_t m*) = γ_n √(k_t / S_n), S_n = 2 E* √(R*δ)
+        gt = gn * math.sqrt(4.0 * g_star / e_star)
+        vtx = vrx - vn * nx - (rwy * nz - rwz * ny)
+        vty = vry - vn * ny - (rwz * nx - rwx * nz)
+        vtz = vrz - vn * nz - (rwx * ny - rwy * nx)
+        ftx, fty, ftz, sx, sy, sz = tangential_spring(nx, ny, nz, vtx, vty, vtz, hist[p, 0], hist[p, 1],
+                                                      hist[p, 2], kt, gt, mu * abs(fn), dt)
+        hist[p, 0] = sx
+        hist[p, 1] = sy
+        hist[p, 2] = sz
         fx += ftx
         fy += fty
         fz += ftz
-        # torque of the tangential force at the contact point −r_i n
-        tx = -ri * (ny * ftz - nz * fty)
-        ty = -ri * (nz * ftx - nx * ftz)
-        tz = -ri * (nx * fty - ny * ftx)
+        qx = ny * ftz - nz * fty
+        qy = nz * ftx - nx * ftz
+        qz = nx * fty - ny * ftx
+    mx = 0.0
+    my = 0.0
+    mz = 0.0
     if mur > 0.0:
-        wdn = wrx * nx + wry * ny + wrz * nz
         kr = 2.25 * kn * mur * mur * reff * reff
-        mx = rhist[a, b, 0] - kr * (wrx - wdn * nx) * dt
-        my = rhist[a, b, 1] - kr * (wry - wdn * ny) * dt
-        mz = rhist[a, b, 2] - kr * (wrz - wdn * nz) * dt
-        mdn = mx * nx + my * ny + mz * nz
-        mx -= mdn * nx
-        my -= mdn * ny
-        mz -= mdn * nz
-        mm = math.sqrt(mx * mx + my * my + mz * mz)
-        mlim = mur * reff * abs(fn)
-        if mm > mlim and mm > 0.0:
-            ratio = mlim / mm
-            mx *= ratio
-            my *= ratio
-            mz *= ratio
-        rhist[a, b, 0] = mx
-        rhist[a, b, 1] = my
-        rhist[a, b, 2] = mz
-        tx += mx
-        ty += my
-        tz += mz
-    return fx, fy, fz, tx, ty, tz, fn
+        mx, my, mz = rolling_spring(nx, ny, nz, wrx, wry, wrz, rhist[p, 0], rhist[p, 1], rhist[p, 2],
+                                    kr, mur * reff * abs(fn), dt)
+        rhist[p, 0] = mx
+        rhist[p, 1] = my
+        rhist[p, 2] = mz
+    return fx, fy, fz, qx, qy, qz, mx, my, mz, fn
 
 
-@njit(cache=True)
-def clear_history(hist, rhist, a, b):
-    """Zero the tangential and rolling history of a contact that has opened."""
+@njit(cache=True, inline="always")
+def clear_history(hist, rhist, p):
+    """Zero the tangential and rolling history of a contact that has opened (row ``p``)."""
     for c in range(3):
-        hist[a, b, c] = 0.0
-        rhist[a, b, c] = 0.0
+        hist[p, c] = 0.0
+        rhist[p, c] = 0.0
 
 
-__all__ = ["contact", "clear_history", "beta_from_restitution", "effective_moduli"]
+@njit(cache=True, inline="always")
+def has_history(hist, rhist, p):
+    """Whether row ``p`` holds any tangential or rolling history."""
+    return (hist[p, 0] != 0.0 or hist[p, 1] != 0.0 or hist[p, 2] != 0.0
+            or rhist[p, 0] != 0.0 or rhist[p, 1] != 0.0 or rhist[p, 2] != 0.0)
+
+
+__all__ = ["contact", "clear_history", "has_history", "tangential_spring", "rolling_spring",
+           "beta_from_restitution", "effective_moduli"]

@@ -1,9 +1,18 @@
-"""The DEM state and its time integration (velocity Verlet, as LIGGGHTS' ``nve/sphere``).
+"""The DEM state and its time integration (velocity Verlet in leapfrog form, as LIGGGHTS'
+``nve/sphere``).
 
 :class:`DEMSystem` holds the particle arrays, the contact histories, the head state and the flat
-parameter array, and advances them with :func:`advance`, an ``njit`` loop over time steps whose
-force pass runs in parallel over particles. Each particle sums its own forces from a full
-neighbour list (no atomics), so a run is bit-identical for the same input and any thread count.
+parameter array, and advances them with :func:`advance`, an ``njit`` loop over time steps. Each
+step has two parallel passes over particles:
+
+1. :func:`pair_forces`: every pair of the half neighbour lists (:mod:`neighbours`) is computed
+   once, by its owner, which sums what it receives from its own pairs into ``fo`` and leaves the
+   partner's share (force −F, torque) in a pair-indexed buffer ``pf``;
+2. :func:`gather_kick_drift`: every particle adds, in a fixed order, its partner shares, the
+   walls and gravity to its own sum, then kicks and drifts itself.
+
+No atomics and no thread-dependent reduction order, so a run is bit-identical for the same input
+and *any* thread count.
 """
 
 from __future__ import annotations
@@ -15,23 +24,40 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .geometry import wall_forces
+from .contact import clear_history, contact, has_history
+from .geometry import element_directions, wall_forces
 from .layout import (H_ACC_BASE, H_ACC_F, H_ACC_N, H_ACC_T, H_SIZE, H_TIME, P_BETA, P_COH, P_DT,
-                     P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_SIZE, P_SKIN, W_BASE_F, W_HEAD_F,
-                     W_HEAD_T, W_SIZE, WALL_SLOTS)
+                     P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SIZE, P_SKIN,
+                     W_BASE_F, W_HEAD_F, W_HEAD_T, W_SIZE, WALL_SLOTS)
 from .neighbours import build_lists
-from .contact import clear_history, contact
 from .servo import head_drift, head_kick
 
 STATUS_OK = 0
 STATUS_OVERFLOW = 1
+#: columns of the pair buffer ``pf``: 0–2 the force on the owner i (N; −F acts on the partner j),
+#: 3–5 the torque on the partner j (N·m)
+PF_SIZE = 6
+#: LLVM fast-math flags of the force kernels: fused multiply-add, reciprocals, signed zeros. Not
+#: "nnan"/"ninf" (the NaN checks must keep working) nor reassociation (sums keep their order).
+FASTMATH = {"contract", "arcp", "nsz"}
+#: the gather pass works on this many blocks of particles (a partition that does not depend on the
+#: thread count), whose partial sums are then added in block order
+GATHER_BLOCKS = 64
 
 
-@njit(parallel=True, cache=True)
-def force_pass(x, v, w, rad, mass, nbr, ncnt, hist, rhist, params, head, wid, whist, wrhist,
-               f, t, wf):
-    """Forces f (N) and torques t (N·m) on every particle, shape (N, 3), from particles, walls
-    and gravity; per-particle wall reactions into wf, shape (N, W_SIZE)."""
+@njit(parallel=True, cache=True, fastmath=FASTMATH)
+def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
+    """Contact force and torques of every listed pair, once per pair.
+
+    Args:
+        x, v, w: positions (m), velocities (m/s), angular velocities (rad/s), shape (N, 3).
+        rad, mass: shape (N,). start: shape (N + 1,), pj: shape (P_cap,): the half lists.
+        hist, rhist: pair history, shape (P_cap, 3) (updated; cleared when a pair opens).
+        params: see :mod:`layout`.
+        pf: out, shape (P_cap, PF_SIZE): the partner's share of each pair (zero for open pairs).
+        fo: out, shape (N, 6): force (N) and torque (N·m) on each particle from the pairs it owns,
+            summed in list order.
+    """
     n = x.shape[0]
     dt = params[P_DT]
     e_star = params[P_ESTAR]
@@ -40,156 +66,237 @@ def force_pass(x, v, w, rad, mass, nbr, ncnt, hist, rhist, params, head, wid, wh
     mu = params[P_MU]
     mur = params[P_MUR]
     coh = params[P_COH]
-    gz = params[P_GZ]
     for i in prange(n):
-        fx = 0.0
-        fy = 0.0
-        fz = mass[i] * gz
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
         ri = rad[i]
-        for k in range(ncnt[i]):
-            j = nbr[i, k]
-            dx = x[i, 0] - x[j, 0]
-            dy = x[i, 1] - x[j, 1]
-            dz = x[i, 2] - x[j, 2]
+        mi = mass[i]
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
+        sfx = 0.0
+        sfy = 0.0
+        sfz = 0.0
+        stx = 0.0
+        sty = 0.0
+        stz = 0.0
+        for p in range(start[i], start[i + 1]):
+            j = pj[p]
+            dx = xi0 - x[j, 0]
+            dy = xi1 - x[j, 1]
+            dz = xi2 - x[j, 2]
             r2 = dx * dx + dy * dy + dz * dz
             rj = rad[j]
             rsum = ri + rj
             if r2 >= rsum * rsum:
-                if hist[i, k, 0] != 0.0 or hist[i, k, 1] != 0.0 or hist[i, k, 2] != 0.0 \
-                        or rhist[i, k, 0] != 0.0 or rhist[i, k, 1] != 0.0 or rhist[i, k, 2] != 0.0:
-                    clear_history(hist, rhist, i, k)
+                if has_history(hist, rhist, p):
+                    clear_history(hist, rhist, p)
+                for c in range(PF_SIZE):
+                    pf[p, c] = 0.0
                 continue
             rr = math.sqrt(r2)
-            nx = dx / rr
-            ny = dy / rr
-            nz = dz / rr
-            reff = ri * rj / rsum
-            meff = mass[i] * mass[j] / (mass[i] + mass[j])
-            cfx, cfy, cfz, ctx, cty, ctz, fn = contact(
-                nx, ny, nz, rsum - rr, reff, meff, ri,
+            inv = 1.0 / rr
+            nx = dx * inv
+            ny = dy * inv
+            nz = dz * inv
+            mj = mass[j]
+            fx, fy, fz, qx, qy, qz, mx, my, mz, _ = contact(
+                nx, ny, nz, rsum - rr, ri * rj / rsum, mi * mj / (mi + mj),
                 v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
                 ri * w[i, 0] + rj * w[j, 0], ri * w[i, 1] + rj * w[j, 1], ri * w[i, 2] + rj * w[j, 2],
                 w[i, 0] - w[j, 0], w[i, 1] - w[j, 1], w[i, 2] - w[j, 2],
-                e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, i, k)
-            fx += cfx
-            fy += cfy
-            fz += cfz
-            tx += ctx
-            ty += cty
-            tz += ctz
-        wfx, wfy, wfz, wtx, wty, wtz, fh, th, fb = wall_forces(i, x, v, w, rad, mass, params, head,
-                                                                wid, whist, wrhist)
-        f[i, 0] = fx + wfx
-        f[i, 1] = fy + wfy
-        f[i, 2] = fz + wfz
-        t[i, 0] = tx + wtx
-        t[i, 1] = ty + wty
-        t[i, 2] = tz + wtz
-        wf[i, W_HEAD_F] = fh
-        wf[i, W_HEAD_T] = th
-        wf[i, W_BASE_F] = fb
+                e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, p)
+            sfx += fx
+            sfy += fy
+            sfz += fz
+            stx += mx - ri * qx
+            sty += my - ri * qy
+            stz += mz - ri * qz
+            pf[p, 0] = fx
+            pf[p, 1] = fy
+            pf[p, 2] = fz
+            pf[p, 3] = -mx - rj * qx
+            pf[p, 4] = -my - rj * qy
+            pf[p, 5] = -mz - rj * qz
+        fo[i, 0] = sfx
+        fo[i, 1] = sfy
+        fo[i, 2] = sfz
+        fo[i, 3] = stx
+        fo[i, 4] = sty
+        fo[i, 5] = stz
 
 
-@njit(parallel=True, cache=True)
-def kick_drift(x, v, w, f, t, mass, inertia, x_build, dt, d2):
-    """Leapfrog form of velocity Verlet: v += Δt F/m, ω += Δt T/I, x += Δt v; d2[i] = squared
-    displacement since the last neighbour-list build (m²). v and ω are half-step values, the ones
-    the force pass sees (as in LIGGGHTS)."""
-    for i in prange(x.shape[0]):
-        a = dt / mass[i]
-        b = dt / inertia[i]
-        acc = 0.0
-        for d in range(3):
-            v[i, d] += a * f[i, d]
-            w[i, d] += b * t[i, d]
-            x[i, d] += dt * v[i, d]
-            e = x[i, d] - x_build[i, d]
-            acc += e * e
-        d2[i] = acc
+@njit(parallel=True, cache=True, fastmath=FASTMATH)
+def gather_kick_drift(x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs,
+                      wid, whist, wrhist, x_build, kick, part):
+    """Total force and torque on every particle, then its kick and drift, block by block.
 
+    Adds, in this order, to gravity the sum over the pairs the particle owns (``fo``), its shares
+    of the pairs it is the partner of (``pf``, in increasing pair index) and the walls, into f (N)
+    and t (N·m), shape (N, 3); then v += kick·Δt F/m, ω += kick·Δt T/I, x += Δt v (kick = 1, or
+    ½ for the leapfrog's first step).
 
-@njit(parallel=True, cache=True)
-def max_displacement2(x, x0):
-    """Largest squared displacement since the last list build, m²."""
+    Args:
+        rstart: shape (N + 1,); rpair: shape (P_cap,); pf: shape (P_cap, PF_SIZE); fo: (N, 6).
+        dirs: blade and rib directions, see :func:`geometry.element_directions`.
+        wid, whist, wrhist: wall-contact slots and histories, see :func:`geometry.wall_forces`.
+        x_build: positions at the last list build, shape (N, 3).
+        part: out, shape (B, W_SIZE + 1): per block of particles (B blocks, a fixed partition
+            whatever the thread count), the sums of the upward force on the head (N), the head's
+            resisting torque (N·m) and the base's upward force (N) in columns W_HEAD_F, W_HEAD_T,
+            W_BASE_F, and the largest squared displacement since the last list build (m²) in
+            column W_SIZE.
+    """
+    dt = params[P_DT]
+    gz = params[P_GZ]
     n = x.shape[0]
-    d2 = np.empty(n)
-    for i in prange(n):
-        a = x[i, 0] - x0[i, 0]
-        b = x[i, 1] - x0[i, 1]
-        c = x[i, 2] - x0[i, 2]
-        d2[i] = a * a + b * b + c * c
+    nb = part.shape[0]
+    for c in prange(nb):
+        fh_sum = 0.0
+        th_sum = 0.0
+        fb_sum = 0.0
+        d2max = 0.0
+        for i in range(c * n // nb, (c + 1) * n // nb):
+            fx = fo[i, 0]
+            fy = fo[i, 1]
+            fz = mass[i] * gz + fo[i, 2]
+            tx = fo[i, 3]
+            ty = fo[i, 4]
+            tz = fo[i, 5]
+            for q in range(rstart[i], rstart[i + 1]):
+                p = rpair[q]
+                fx -= pf[p, 0]
+                fy -= pf[p, 1]
+                fz -= pf[p, 2]
+                tx += pf[p, 3]
+                ty += pf[p, 4]
+                tz += pf[p, 5]
+            wfx, wfy, wfz, wtx, wty, wtz, fh, th, fb = wall_forces(i, x, v, w, rad, mass, params, head, dirs,
+                                                                    wid, whist, wrhist)
+            fx += wfx
+            fy += wfy
+            fz += wfz
+            tx += wtx
+            ty += wty
+            tz += wtz
+            f[i, 0] = fx
+            f[i, 1] = fy
+            f[i, 2] = fz
+            t[i, 0] = tx
+            t[i, 1] = ty
+            t[i, 2] = tz
+            fh_sum += fh
+            th_sum += th
+            fb_sum += fb
+            a = kick * dt / mass[i]
+            b = kick * dt / inertia[i]
+            v[i, 0] += a * fx
+            v[i, 1] += a * fy
+            v[i, 2] += a * fz
+            w[i, 0] += b * tx
+            w[i, 1] += b * ty
+            w[i, 2] += b * tz
+            acc = 0.0
+            for d in range(3):
+                x[i, d] += dt * v[i, d]
+                e = x[i, d] - x_build[i, d]
+                acc += e * e
+            d2max = max(d2max, acc)
+        part[c, W_HEAD_F] = fh_sum
+        part[c, W_HEAD_T] = th_sum
+        part[c, W_BASE_F] = fb_sum
+        part[c, W_SIZE] = d2max
+
+
+@njit(cache=True)
+def max_displacement2(x, x_build):
+    """Largest squared displacement of a particle since the last list build, m²; shapes (N, 3)."""
     m = 0.0
-    for i in range(n):
-        if d2[i] > m:
-            m = d2[i]
+    for i in range(x.shape[0]):
+        m = max(m, (x[i, 0] - x_build[i, 0]) ** 2 + (x[i, 1] - x_build[i, 1]) ** 2 + (x[i, 2] - x_build[i, 2]) ** 2)
     return m
 
 
 @njit(cache=True)
-def advance(nsteps, x, v, w, f, t, rad, mass, inertia, nbr, ncnt, hist, rhist, x_build,
-            nbr2, ncnt2, hist2, rhist2, cell_size, params, head, wid, whist, wrhist, wf):
-    """Advance ``nsteps`` velocity-Verlet steps. Returns (status, steps done, list builds).
+def rebuild(x, rad, skin, cell_size, start, pj, hist, rhist, rstart, rpair, start2, pj2, hist2, rhist2, x_build):
+    """Rebuild the half lists (scratch: start2, pj2, hist2, rhist2), copy them into (start, pj,
+    hist, rhist), record x_build. Returns the pair count; above the capacity ``pj.shape[0]``
+    nothing changed and the caller must enlarge the pair arrays."""
+    total = build_lists(x, rad, skin, cell_size, start, pj, hist, rhist, start2, pj2, hist2, rhist2, rstart, rpair)
+    if total > pj.shape[0]:
+        return total
+    start[:] = start2
+    pj[:total] = pj2[:total]
+    hist[:total] = hist2[:total]
+    rhist[:total] = rhist2[:total]
+    x_build[:, :] = x
+    return total
 
-    Status ``STATUS_OVERFLOW`` means a neighbour list overflowed before the step was taken; the
-    caller enlarges the lists and calls again. (nbr2, hist2, …) are scratch buffers for the
-    rebuild; the current lists are always in (nbr, hist, …).
+
+@njit(cache=True)
+def advance(nsteps, kick0, x, v, w, f, t, rad, mass, inertia, x_build,
+            start, pj, hist, rhist, rstart, rpair, pf, start2, pj2, hist2, rhist2,
+            cell_size, params, head, wid, whist, wrhist):
+    """Advance ``nsteps`` steps: per step, rebuild the lists if a particle moved more than half
+    the skin since the last build, compute every force at the current positions, kick (the first
+    step by ``kick0`` Δt, then Δt) and drift the particles, then the head.
+
+    Returns (status, steps done, list builds, pair count). Status ``STATUS_OVERFLOW`` means the
+    pair arrays overflowed before the step was taken; the caller enlarges them and calls again.
+    (start2, pj2, hist2, rhist2) are scratch buffers for the rebuild.
     """
     dt = params[P_DT]
     skin = params[P_SKIN]
-    builds = 0
     n = x.shape[0]
-    d2 = np.empty(n)
-    for i in range(n):
-        d2[i] = (x[i, 0] - x_build[i, 0]) ** 2 + (x[i, 1] - x_build[i, 1]) ** 2 + (x[i, 2] - x_build[i, 2]) ** 2
+    dirs = np.zeros((max(1, int(params[P_NBLADES]) + int(params[P_NRIBS])), 2))
+    fo = np.empty((n, 6))
+    part = np.empty((min(GATHER_BLOCKS, max(1, n)), W_SIZE + 1))
+    builds = 0
     lim = 0.25 * skin * skin
+    dmax = max_displacement2(x, x_build)
+    kick = kick0
     for step in range(nsteps):
-        # list check on the positions of this step's start (d2 from the previous drift)
-        dmax = 0.0
-        for i in range(n):
-            if d2[i] > dmax:
-                dmax = d2[i]
         if dmax > lim:
-            top = build_lists(x, rad, skin, cell_size, nbr, ncnt, hist, rhist, nbr2, ncnt2, hist2, rhist2)
-            if top > nbr.shape[1]:
-                return STATUS_OVERFLOW, step, builds, top
-            nbr[:, :] = nbr2
-            ncnt[:] = ncnt2
-            hist[:, :, :] = hist2
-            rhist[:, :, :] = rhist2
-            x_build[:, :] = x
-            d2[:] = 0.0
+            total = rebuild(x, rad, skin, cell_size, start, pj, hist, rhist, rstart, rpair, start2, pj2, hist2,
+                            rhist2, x_build)
+            if total > pj.shape[0]:
+                return STATUS_OVERFLOW, step, builds, total
             builds += 1
-        kick_drift(x, v, w, f, t, mass, inertia, x_build, dt, d2)
-        head_drift(head, dt)
-        force_pass(x, v, w, rad, mass, nbr, ncnt, hist, rhist, params, head, wid, whist, wrhist, f, t, wf)
+        element_directions(params, head, dirs)
+        pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo)
+        gather_kick_drift(x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs,
+                          wid, whist, wrhist, x_build, kick, part)
+        kick = 1.0
         fh = 0.0
         th = 0.0
         fb = 0.0
-        for i in range(n):
-            fh += wf[i, W_HEAD_F]
-            th += wf[i, W_HEAD_T]
-            fb += wf[i, W_BASE_F]
+        dmax = 0.0
+        for c in range(part.shape[0]):
+            fh += part[c, W_HEAD_F]
+            th += part[c, W_HEAD_T]
+            fb += part[c, W_BASE_F]
+            dmax = max(dmax, part[c, W_SIZE])
         head_kick(head, fh, dt)
+        head_drift(head, dt)
         head[H_ACC_F] += fh
         head[H_ACC_T] += th
         head[H_ACC_BASE] += fb
         head[H_ACC_N] += 1.0
         head[H_TIME] += dt
-    return STATUS_OK, nsteps, builds, 0
+    return STATUS_OK, nsteps, builds, start[n]
 
 
 class DEMSystem:
     """Spheres in the analytic FT4 cell, ready to advance.
 
-    Attributes (SI): x, v, w (N, 3) positions, velocities, angular velocities; f, t (N, 3) forces
-    and torques; rad, mass, inertia (N,); params (P_SIZE,), head (H_SIZE,) — see :mod:`layout`.
+    Attributes (SI): x, v, w (N, 3) positions, velocities, angular velocities (v, ω half a step
+    behind x once stepping has started, as in leapfrog); f, t (N, 3) the forces and torques of the
+    last step; rad, mass, inertia (N,); params (P_SIZE,), head (H_SIZE,) — see :mod:`layout`.
+    Contacts: the half lists (start (N + 1,), pj (P_cap,), see :mod:`neighbours`) with the pair
+    history hist, rhist (P_cap, 3) (m, N·m) and reverse index (rstart, rpair); wall slots wid
+    (N, WALL_SLOTS) with their history whist, wrhist (N · WALL_SLOTS, 3).
     """
 
     def __init__(self, x: np.ndarray, rad: np.ndarray, density: float, params: np.ndarray,
-                 head: np.ndarray | None = None, v: np.ndarray | None = None, maxn: int = 0):
+                 head: np.ndarray | None = None, v: np.ndarray | None = None, pair_capacity: int = 0):
         n = x.shape[0]
         self.x = np.ascontiguousarray(x, dtype=np.float64)
         self.rad = np.ascontiguousarray(rad, dtype=np.float64)
@@ -199,7 +306,6 @@ class DEMSystem:
         self.w = np.zeros((n, 3))
         self.f = np.zeros((n, 3))
         self.t = np.zeros((n, 3))
-        self.wf = np.zeros((n, W_SIZE))
         assert params.shape == (P_SIZE,)
         self.params = params
         self.head = np.zeros(H_SIZE) if head is None else head
@@ -208,79 +314,57 @@ class DEMSystem:
             self.params[P_SKIN] = 0.3 * r_min
         self.cell_size = 2.0 * r_max + self.params[P_SKIN]
         ratio = r_max / r_min
-        self.maxn = maxn or int(min(n, 20 + 12 * ratio**2))
         self.wid = -np.ones((n, WALL_SLOTS), dtype=np.int64)
-        self.whist = np.zeros((n, WALL_SLOTS, 3))
-        self.wrhist = np.zeros((n, WALL_SLOTS, 3))
-        self._alloc_lists(self.maxn)
+        self.whist = np.zeros((n * WALL_SLOTS, 3))
+        self.wrhist = np.zeros((n * WALL_SLOTS, 3))
+        self.start = np.zeros(n + 1, dtype=np.int64)
+        self.rstart = np.zeros(n + 1, dtype=np.int64)
+        self.start2 = np.zeros(n + 1, dtype=np.int64)
+        self._alloc_pairs(pair_capacity or int(n * (8 + 6 * ratio**2)) + 16)
         self.x_build = self.x + 1e9  # forces a build at the first step
         self.list_builds = 0
-        self._forces_valid = False
+        self._started = False
 
-    def _alloc_lists(self, maxn: int, keep: bool = False) -> None:
-        n = self.x.shape[0]
-        nbr = np.zeros((n, maxn), dtype=np.int64)
-        hist = np.zeros((n, maxn, 3))
-        rhist = np.zeros((n, maxn, 3))
-        ncnt = np.zeros(n, dtype=np.int64)
-        if keep:
-            m = self.nbr.shape[1]
-            nbr[:, :m] = self.nbr
-            hist[:, :m] = self.hist
-            rhist[:, :m] = self.rhist
-            ncnt[:] = self.ncnt
-        self.nbr, self.hist, self.rhist, self.ncnt = nbr, hist, rhist, ncnt
-        self.nbr2 = np.zeros_like(nbr)
-        self.hist2 = np.zeros_like(hist)
-        self.rhist2 = np.zeros_like(rhist)
-        self.ncnt2 = np.zeros_like(ncnt)
-        self.maxn = maxn
+    def _alloc_pairs(self, capacity: int) -> None:
+        """(Re)allocate the pair arrays with room for ``capacity`` pairs, keeping the current lists."""
+        keep = int(self.start[-1]) if hasattr(self, "pj") else 0
+        old = (self.pj, self.hist, self.rhist, self.rpair) if keep else None
+        self.pj = np.zeros(capacity, dtype=np.int64)
+        self.hist = np.zeros((capacity, 3))
+        self.rhist = np.zeros((capacity, 3))
+        self.rpair = np.zeros(capacity, dtype=np.int64)
+        if old is not None:
+            for new, prev in zip((self.pj, self.hist, self.rhist, self.rpair), old):
+                new[:keep] = prev[:keep]
+        self.pf = np.zeros((capacity, PF_SIZE))
+        self.pj2 = np.zeros_like(self.pj)
+        self.hist2 = np.zeros_like(self.hist)
+        self.rhist2 = np.zeros_like(self.rhist)
 
     @property
     def n(self) -> int:
         """Particle count."""
         return self.x.shape[0]
 
-    def compute_forces(self) -> None:
-        """Evaluate forces at the current state (needed once before the first step)."""
-        if max_displacement2(self.x, self.x_build) > 0.25 * self.params[P_SKIN] ** 2:
-            self._rebuild()
-        force_pass(self.x, self.v, self.w, self.rad, self.mass, self.nbr, self.ncnt, self.hist, self.rhist,
-                   self.params, self.head, self.wid, self.whist, self.wrhist, self.f, self.t, self.wf)
-        # leapfrog start: v(−Δt/2) so that the first full kick lands on v(0) + ½Δt F/m
-        h = 0.5 * self.params[P_DT]
-        self.v -= h * self.f / self.mass[:, None]
-        self.w -= h * self.t / self.inertia[:, None]
-        self._forces_valid = True
-
-    def _rebuild(self) -> None:
-        while True:
-            top = build_lists(self.x, self.rad, self.params[P_SKIN], self.cell_size, self.nbr, self.ncnt,
-                              self.hist, self.rhist, self.nbr2, self.ncnt2, self.hist2, self.rhist2)
-            if top <= self.maxn:
-                break
-            self._alloc_lists(int(top * 1.5) + 4, keep=True)
-        self.nbr[:] = self.nbr2
-        self.ncnt[:] = self.ncnt2
-        self.hist[:] = self.hist2
-        self.rhist[:] = self.rhist2
-        self.x_build[:] = self.x
-        self.list_builds += 1
+    @property
+    def pair_count(self) -> int:
+        """Pairs in the current half neighbour lists."""
+        return int(self.start[-1])
 
     def advance(self, nsteps: int) -> None:
-        """Advance ``nsteps`` time steps (enlarging the neighbour lists when they overflow)."""
-        if not self._forces_valid:
-            self.compute_forces()
+        """Advance ``nsteps`` time steps (enlarging the pair arrays when they overflow)."""
         done = 0
         while done < nsteps:
-            status, k, builds, top = advance(
-                nsteps - done, self.x, self.v, self.w, self.f, self.t, self.rad, self.mass, self.inertia,
-                self.nbr, self.ncnt, self.hist, self.rhist, self.x_build, self.nbr2, self.ncnt2, self.hist2,
-                self.rhist2, self.cell_size, self.params, self.head, self.wid, self.whist, self.wrhist, self.wf)
+            status, k, builds, total = advance(
+                nsteps - done, 1.0 if self._started else 0.5, self.x, self.v, self.w, self.f, self.t, self.rad,
+                self.mass, self.inertia, self.x_build, self.start, self.pj, self.hist, self.rhist,
+                self.rstart, self.rpair, self.pf, self.start2, self.pj2, self.hist2, self.rhist2, self.cell_size,
+                self.params, self.head, self.wid, self.whist, self.wrhist)
             done += k
+            self._started = self._started or k > 0
             self.list_builds += builds
             if status == STATUS_OVERFLOW:
-                self._alloc_lists(int(top * 1.5) + 4, keep=True)
+                self._alloc_pairs(int(total * 1.5) + 64)
 
     def take_accumulators(self) -> tuple[float, float, float, int]:
         """(mean upward force on the head N, mean resisting torque N·m, mean base force N, steps)

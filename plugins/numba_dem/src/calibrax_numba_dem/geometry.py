@@ -5,7 +5,9 @@ ribs, and the bladed shear head (a disc of radius R_head whose lower face is at 
 Every boundary is exact geometry (no mesh): each particle finds its closest point on each
 element, and the contact law of :mod:`contact` is applied with the wall as a body of infinite
 radius and mass. Wall-contact history lives in ``WALL_SLOTS`` slots per particle keyed by element
-id (0 cylinder, 1 base, 2 head disc, 3… blades, then ribs).
+id (0 cylinder, 1 base, 2 head disc, 3… blades, then ribs); slot s of particle i is row
+``i · WALL_SLOTS + s`` of the wall history arrays. The blades' and ribs' directions are computed
+once per step (:func:`element_directions`), not per particle.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ EID_DISC = 2
 EID_BLADE0 = 3
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _slot(wid, i, eid):
     """Slot of element ``eid`` in particle i's wall history (claiming a free one), or −1."""
     free = -1
@@ -40,7 +42,7 @@ def _slot(wid, i, eid):
     return free
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _plate_closest(px, py, pz, ca, sa, s0, s1, z0, z1):
     """Closest point of a vertical radial plate {s e_α + z e_z: s∈[s0,s1], z∈[z0,z1]} to p.
 
@@ -65,25 +67,66 @@ def _plate_closest(px, py, pz, ca, sa, s0, s1, z0, z1):
 
 
 @njit(cache=True)
-def wall_forces(i, x, v, w, rad, mass, params, head, wid, whist, wrhist):
+def element_directions(params, head, out):
+    """Unit directions (cos α, sin α) of the blades (rows 0 … n_blades − 1, turning with the head)
+    and of the ribs (the next n_ribs rows), into ``out`` of shape (≥ n_blades + n_ribs, 2)."""
+    nblades = int(params[P_NBLADES])
+    nribs = int(params[P_NRIBS])
+    for k in range(nblades):
+        ang = head[H_PHI] + 2.0 * math.pi * k / nblades
+        out[k, 0] = math.cos(ang)
+        out[k, 1] = math.sin(ang)
+    for k in range(nribs):
+        ang = 2.0 * math.pi * k / nribs
+        out[nblades + k, 0] = math.cos(ang)
+        out[nblades + k, 1] = math.sin(ang)
+
+
+@njit(cache=True, inline="always")
+def _touch(i, eid, nx, ny, nz, delta, vwx, vwy, vwz, wwz, mu, mur, r, m, v, w, params, wid, whist, wrhist):
+    """One wall contact of particle i with element ``eid`` (unit normal n from the wall to i,
+    overlap ``delta`` m, surface velocity vw m/s and spin wwz rad/s about z).
+
+    Returns (slot, Fx, Fy, Fz, Tx, Ty, Tz): the history slot used (−1: none free, contact
+    ignored) and the force (N) and torque (N·m) on i."""
+    s = _slot(wid, i, eid)
+    if s < 0:
+        return s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    fx, fy, fz, qx, qy, qz, mx, my, mz, _ = contact(
+        nx, ny, nz, delta, r, m,
+        v[i, 0] - vwx, v[i, 1] - vwy, v[i, 2] - vwz,
+        r * w[i, 0], r * w[i, 1], r * w[i, 2],
+        w[i, 0], w[i, 1], w[i, 2] - wwz,
+        params[P_ESTAR], params[P_GSTAR], params[P_BETA], mu, mur, params[P_COH], params[P_DT],
+        whist, wrhist, i * WALL_SLOTS + s)
+    return s, fx, fy, fz, mx - r * qx, my - r * qy, mz - r * qz
+
+
+@njit(cache=True, inline="always")
+def _release_slots(i, touched, wid, whist, wrhist):
+    """Free the wall slots of particle i not in the bit mask ``touched``, zeroing their history."""
+    for s in range(WALL_SLOTS):
+        if wid[i, s] >= 0 and not (touched >> s) & 1:
+            wid[i, s] = -1
+            clear_history(whist, wrhist, i * WALL_SLOTS + s)
+
+
+@njit(cache=True, inline="always")
+def wall_forces(i, x, v, w, rad, mass, params, head, dirs, wid, whist, wrhist):
     """Sum of wall forces on particle i.
 
     Args:
         i: particle index. x, v, w: positions (m), velocities (m/s), angular velocities (rad/s),
             each shape (N, 3). rad, mass: shape (N,). params, head: see :mod:`layout`.
+        dirs: blade and rib directions from :func:`element_directions`, shape (≥ n_el, 2).
         wid: element id per slot, shape (N, WALL_SLOTS), −1 = free. whist, wrhist: tangential
-            displacement (m) and rolling torque (N·m) per slot, shape (N, WALL_SLOTS, 3).
+            displacement (m) and rolling torque (N·m) per slot, shape (N · WALL_SLOTS, 3).
 
     Returns:
         (Fx, Fy, Fz, Tx, Ty, Tz, F_head_up, T_head, F_base_up): force and torque on i; upward force
         of i on the head (N); torque of i on the head about z, counted positive when it resists
         the head's rotation (N·m); upward force of base and ribs on i (N).
     """
-    dt = params[P_DT]
-    e_star = params[P_ESTAR]
-    g_star = params[P_GSTAR]
-    beta = params[P_BETA]
-    coh = params[P_COH]
     r = rad[i]
     m = mass[i]
     px = x[i, 0]
@@ -99,139 +142,115 @@ def wall_forces(i, x, v, w, rad, mass, params, head, wid, whist, wrhist):
     th = 0.0
     fb = 0.0
     touched = 0  # bit mask of slots used this step
+    # ---- vessel wall
+    if params[P_USE_CYL] > 0.0:
+        rc = params[P_RC]
+        rho2 = px * px + py * py
+        if rho2 > (rc - r) * (rc - r) and rho2 > 0.0:
+            rho = math.sqrt(rho2)
+            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_CYL, -px / rho, -py / rho, 0.0, r - (rc - rho),
+                                                     0.0, 0.0, 0.0, 0.0, params[P_MU_WALL], params[P_MUR_WALL],
+                                                     r, m, v, w, params, wid, whist, wrhist)
+            if s >= 0:
+                touched |= 1 << s
+                fx += cfx
+                fy += cfy
+                fz += cfz
+                tx += ctx
+                ty += cty
+                tz += ctz
+    # ---- base
+    if params[P_USE_BASE] > 0.0 and pz < r:
+        s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_BASE, 0.0, 0.0, 1.0, r - pz, 0.0, 0.0, 0.0, 0.0,
+                                                 params[P_MU_BASE], params[P_MUR_BASE], r, m, v, w, params,
+                                                 wid, whist, wrhist)
+        if s >= 0:
+            touched |= 1 << s
+            fx += cfx
+            fy += cfy
+            fz += cfz
+            tx += ctx
+            ty += cty
+            tz += ctz
+            fb += cfz
+    # ---- head: disc and blades (moving: surface velocity ω ẑ × q + v_z ẑ at the contact point q)
     nblades = int(params[P_NBLADES])
-    nribs = int(params[P_NRIBS])
-    n_el = 3 + nblades + nribs
     zh = head[H_Z]
-    use_head = params[P_USE_HEAD] > 0.0
-    rh = params[P_HEAD_R]
     hb = params[P_BLADE_H]
-    for eid in range(n_el):
-        # ---- closest point q on element eid, its surface velocity, friction -----------------
-        hit = False
-        qx = 0.0
-        qy = 0.0
-        qz = 0.0
-        dist = 0.0
-        nx = 0.0
-        ny = 0.0
-        nz = 0.0
-        vwx = 0.0
-        vwy = 0.0
-        vwz = 0.0
-        wwz = 0.0
-        mu = 0.0
-        mur = 0.0
-        is_head = False
-        is_base = False
-        if eid == EID_CYL:
-            if params[P_USE_CYL] > 0.0:
-                rho = math.sqrt(px * px + py * py)
-                rc = params[P_RC]
-                if rho + r > rc and rho > 0.0:
-                    hit = True
-                    dist = rc - rho
-                    nx = -px / rho
-                    ny = -py / rho
-                    nz = 0.0
-                    mu = params[P_MU_WALL]
-                    mur = params[P_MUR_WALL]
-        elif eid == EID_BASE:
-            if params[P_USE_BASE] > 0.0 and pz < r:
-                hit = True
-                dist = pz
-                nz = 1.0
-                mu = params[P_MU_BASE]
-                mur = params[P_MUR_BASE]
-                is_base = True
-        elif eid == EID_DISC:
-            if use_head and abs(pz - zh) < r:
-                rho = math.sqrt(px * px + py * py)
-                if rho < rh + r:
-                    if rho <= rh:
+    if params[P_USE_HEAD] > 0.0 and pz < zh + r and pz > zh - hb - r:
+        rh = params[P_HEAD_R]
+        om = head[H_OMEGA]
+        vz = head[H_VZ]
+        mu_h = params[P_MU_HEAD]
+        mur_h = params[P_MUR_HEAD]
+        for eid in range(EID_DISC, EID_BLADE0 + nblades):
+            hit = False
+            qx = 0.0
+            qy = 0.0
+            qz = 0.0
+            dist = 0.0
+            if eid == EID_DISC:
+                if abs(pz - zh) < r:
+                    rho2 = px * px + py * py
+                    if rho2 < (rh + r) * (rh + r):
                         qx = px
                         qy = py
-                    else:
-                        qx = px * rh / rho
-                        qy = py * rh / rho
-                    qz = zh
-                    dx = px - qx
-                    dy = py - qy
-                    dz = pz - qz
-                    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    if dist < r and dist > 0.0:
-                        hit = True
-                        nx = dx / dist
-                        ny = dy / dist
-                        nz = dz / dist
-                        is_head = True
-        elif eid < 3 + nblades:
-            if use_head and pz < zh + r and pz > zh - hb - r:
-                ang = head[H_PHI] + 2.0 * math.pi * (eid - 3) / nblades
-                ca = math.cos(ang)
-                sa = math.sin(ang)
-                perp = -px * sa + py * ca
-                if abs(perp) < r:
+                        if rho2 > rh * rh:
+                            sc = rh / math.sqrt(rho2)
+                            qx = px * sc
+                            qy = py * sc
+                        qz = zh
+                        dist = math.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+                        hit = dist < r and dist > 0.0
+            else:
+                ca = dirs[eid - EID_BLADE0, 0]
+                sa = dirs[eid - EID_BLADE0, 1]
+                if abs(py * ca - px * sa) < r:
                     qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, params[P_HUB_R], rh, zh - hb, zh)
-                    if dist < r and dist > 0.0:
-                        hit = True
-                        nx = (px - qx) / dist
-                        ny = (py - qy) / dist
-                        nz = (pz - qz) / dist
-                        is_head = True
-        else:
-            hr = params[P_RIB_H]
-            if pz < hr + r:
-                ang = 2.0 * math.pi * (eid - 3 - nblades) / nribs
-                ca = math.cos(ang)
-                sa = math.sin(ang)
-                perp = -px * sa + py * ca
-                if abs(perp) < r:
-                    qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, 0.0, params[P_RC], 0.0, hr)
-                    if dist < r and dist > 0.0:
-                        hit = True
-                        nx = (px - qx) / dist
-                        ny = (py - qy) / dist
-                        nz = (pz - qz) / dist
-                        mu = params[P_MU_BASE]
-                        mur = params[P_MUR_BASE]
-                        is_base = True
-        if not hit:
-            continue
-        if is_head:
-            om = head[H_OMEGA]
-            vwx = -om * qy
-            vwy = om * qx
-            vwz = head[H_VZ]
-            wwz = om
-            mu = params[P_MU_HEAD]
-            mur = params[P_MUR_HEAD]
-        s = _slot(wid, i, eid)
-        if s < 0:
-            continue  # more simultaneous wall contacts than slots: ignore the extra one
-        touched |= 1 << s
-        delta = r - dist
-        cfx, cfy, cfz, ctx, cty, ctz, fn = contact(
-            nx, ny, nz, delta, r, m, r,
-            v[i, 0] - vwx, v[i, 1] - vwy, v[i, 2] - vwz,
-            r * w[i, 0], r * w[i, 1], r * w[i, 2],
-            w[i, 0], w[i, 1], w[i, 2] - wwz,
-            e_star, g_star, beta, mu, mur, coh, dt, whist, wrhist, i, s)
-        fx += cfx
-        fy += cfy
-        fz += cfz
-        tx += ctx
-        ty += cty
-        tz += ctz
-        if is_head:
+                    hit = dist < r and dist > 0.0
+            if not hit:
+                continue
+            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, eid, (px - qx) / dist, (py - qy) / dist, (pz - qz) / dist,
+                                                     r - dist, -om * qy, om * qx, vz, om, mu_h, mur_h, r, m, v, w,
+                                                     params, wid, whist, wrhist)
+            if s < 0:
+                continue  # more simultaneous wall contacts than slots: ignore the extra one
+            touched |= 1 << s
+            fx += cfx
+            fy += cfy
+            fz += cfz
+            tx += ctx
+            ty += cty
+            tz += ctz
             # the head receives −F at the contact point c = p − r n and −M_roll; its resisting
             # torque about z is (c × F)_z + M_roll,z = (p × F)_z + T_z (T: torque on i)
             fh -= cfz
             th += px * cfy - py * cfx + ctz
-        if is_base:
+    # ---- ribs on the base
+    nribs = int(params[P_NRIBS])
+    hr = params[P_RIB_H]
+    if nribs > 0 and pz < hr + r:
+        for k in range(nribs):
+            ca = dirs[nblades + k, 0]
+            sa = dirs[nblades + k, 1]
+            if abs(py * ca - px * sa) >= r:
+                continue
+            qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, 0.0, params[P_RC], 0.0, hr)
+            if not (dist < r and dist > 0.0):
+                continue
+            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_BLADE0 + nblades + k, (px - qx) / dist,
+                                                     (py - qy) / dist, (pz - qz) / dist, r - dist, 0.0, 0.0,
+                                                     0.0, 0.0, params[P_MU_BASE], params[P_MUR_BASE], r, m, v, w,
+                                                     params, wid, whist, wrhist)
+            if s < 0:
+                continue
+            touched |= 1 << s
+            fx += cfx
+            fy += cfy
+            fz += cfz
+            tx += ctx
+            ty += cty
+            tz += ctz
             fb += cfz
-    for s in range(WALL_SLOTS):
-        if wid[i, s] >= 0 and not (touched >> s) & 1:
-            wid[i, s] = -1
-            clear_history(whist, wrhist, i, s)
+    _release_slots(i, touched, wid, whist, wrhist)
     return fx, fy, fz, tx, ty, tz, fh, th, fb

@@ -1,8 +1,16 @@
-"""Cell-list neighbour search producing full (both-direction) Verlet lists with a skin.
+"""Cell-list neighbour search producing half Verlet lists with a skin, in compressed rows.
 
-Each particle i owns the row ``nbr[i, :ncnt[i]]`` of the particles j ≠ i closer than
-r_i + r_j + skin, in a deterministic order (cell by cell, then by index). When a list is rebuilt,
-the tangential and rolling history of each directed pair (i, j) is carried over to its new slot.
+Every pair {i, j} closer than r_i + r_j + skin is listed once, by its *owner* (:func:`owns`: the
+lower index when i + j is even, the higher one when it is odd, so that every particle owns about
+half of its neighbours whatever its index, and the rows stay balanced between threads). Owner i's
+pairs are ``p = start[i] … start[i + 1] − 1`` with partner ``pj[p]``, in a deterministic order
+(cell by cell, then by position in the cell). The pair's normal points from j to i, and its
+tangential and rolling history (rows ``p`` of two arrays of shape (P, 3)) is carried over to its
+new slot when the lists are rebuilt (the owner of a pair never changes).
+
+The reverse index lists, for each particle j, the pairs it is the partner of:
+``rpair[rstart[j] … rstart[j + 1] − 1]``, in increasing p, so that a particle can sum the forces of
+all its pairs in a fixed order (bit-identical results for any thread count).
 """
 
 from __future__ import annotations
@@ -11,6 +19,12 @@ import math
 
 import numpy as np
 from numba import njit, prange
+
+
+@njit(cache=True, inline="always")
+def owns(i, j):
+    """Whether particle i owns the pair {i, j} (i ≠ j)."""
+    return (i < j) == ((i + j) % 2 == 0)
 
 
 @njit(cache=True)
@@ -63,55 +77,99 @@ def _cell_index(px, py, pz, lo, dims, cell_size):
     return (iz * dims[1] + iy) * dims[0] + ix
 
 
-@njit(parallel=True, cache=True)
-def build_lists(x, rad, skin, cell_size, nbr_old, ncnt_old, hist_old, rhist_old,
-                nbr, ncnt, hist, rhist):
-    """Fill ``nbr``/``ncnt`` (shape (N, maxn), (N,)) and carry history over from the old lists.
+@njit(cache=True, inline="always")
+def _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old, hist_old,
+              rhist_old, base, pj, hist, rhist, fill):
+    """Pairs owned by i within the cut-off. With ``fill`` False only counts them; with ``fill``
+    True writes them from row ``base`` on (partner, carried-over history). Returns the count."""
+    px = x[i, 0]
+    py = x[i, 1]
+    pz = x[i, 2]
+    ri = rad[i] + skin
+    ix = min(max(int((px - lo[0]) / cell_size), 0), dims[0] - 1)
+    iy = min(max(int((py - lo[1]) / cell_size), 0), dims[1] - 1)
+    iz = min(max(int((pz - lo[2]) / cell_size), 0), dims[2] - 1)
+    k = 0
+    for cz in range(max(iz - 1, 0), min(iz + 2, dims[2])):
+        for cy in range(max(iy - 1, 0), min(iy + 2, dims[1])):
+            for cx in range(max(ix - 1, 0), min(ix + 2, dims[0])):
+                c = (cz * dims[1] + cy) * dims[0] + cx
+                for q in range(cell_start[c], cell_start[c + 1]):
+                    j = order[q]
+                    if j == i or not owns(i, j):
+                        continue
+                    dx = px - x[j, 0]
+                    dy = py - x[j, 1]
+                    dz = pz - x[j, 2]
+                    cut = ri + rad[j]
+                    if dx * dx + dy * dy + dz * dz >= cut * cut:
+                        continue
+                    if fill:
+                        p = base + k
+                        pj[p] = j
+                        found = -1
+                        for po in range(start_old[i], start_old[i + 1]):
+                            if pj_old[po] == j:
+                                found = po
+                                break
+                        for d in range(3):
+                            if found >= 0:
+                                hist[p, d] = hist_old[found, d]
+                                rhist[p, d] = rhist_old[found, d]
+                            else:
+                                hist[p, d] = 0.0
+                                rhist[p, d] = 0.0
+                    k += 1
+    return k
 
-    Returns the largest neighbour count found; if it exceeds ``nbr.shape[1]`` the lists are
-    incomplete and the caller must enlarge them and call again.
+
+@njit(parallel=True, cache=True)
+def build_lists(x, rad, skin, cell_size, start_old, pj_old, hist_old, rhist_old,
+                start, pj, hist, rhist, rstart, rpair):
+    """Build the half lists into (start, pj, hist, rhist) and the reverse index (rstart, rpair),
+    carrying the history over from the old lists (start_old, pj_old, hist_old, rhist_old).
+
+    Args:
+        x: positions, shape (N, 3), m. rad: radii, shape (N,), m. skin, cell_size: m.
+        start_old, start, rstart: shape (N + 1,). pj_old, pj, rpair: shape (P_cap,).
+        hist_old, rhist_old, hist, rhist: shape (P_cap, 3).
+
+    Returns:
+        The number of pairs found. If it exceeds the capacity ``pj.shape[0]`` nothing but
+        ``start`` was written and the caller must enlarge the pair arrays and call again.
     """
     n = x.shape[0]
-    maxn = nbr.shape[1]
     lo, dims, cell_start, order = bin_particles(x, cell_size)
-    counts = np.zeros(n, dtype=np.int64)
+    counts = np.empty(n, dtype=np.int64)
     for i in prange(n):
-        px = x[i, 0]
-        py = x[i, 1]
-        pz = x[i, 2]
-        ix = min(max(int((px - lo[0]) / cell_size), 0), dims[0] - 1)
-        iy = min(max(int((py - lo[1]) / cell_size), 0), dims[1] - 1)
-        iz = min(max(int((pz - lo[2]) / cell_size), 0), dims[2] - 1)
-        k = 0
-        for cz in range(max(iz - 1, 0), min(iz + 2, dims[2])):
-            for cy in range(max(iy - 1, 0), min(iy + 2, dims[1])):
-                for cx in range(max(ix - 1, 0), min(ix + 2, dims[0])):
-                    c = (cz * dims[1] + cy) * dims[0] + cx
-                    for q in range(cell_start[c], cell_start[c + 1]):
-                        j = order[q]
-                        if j == i:
-                            continue
-                        dx = px - x[j, 0]
-                        dy = py - x[j, 1]
-                        dz = pz - x[j, 2]
-                        cut = rad[i] + rad[j] + skin
-                        if dx * dx + dy * dy + dz * dz < cut * cut:
-                            if k < maxn:
-                                nbr[i, k] = j
-                                # carry the history of the directed pair (i, j) over
-                                found = -1
-                                for ko in range(ncnt_old[i]):
-                                    if nbr_old[i, ko] == j:
-                                        found = ko
-                                        break
-                                for d in range(3):
-                                    if found >= 0:
-                                        hist[i, k, d] = hist_old[i, found, d]
-                                        rhist[i, k, d] = rhist_old[i, found, d]
-                                    else:
-                                        hist[i, k, d] = 0.0
-                                        rhist[i, k, d] = 0.0
-                            k += 1
-        ncnt[i] = min(k, maxn)
-        counts[i] = k
-    return counts.max()
+        counts[i] = _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old,
+                              hist_old, rhist_old, 0, pj, hist, rhist, False)
+    start[0] = 0
+    for i in range(n):
+        start[i + 1] = start[i] + counts[i]
+    total = start[n]
+    if total > pj.shape[0]:
+        return total
+    for i in prange(n):
+        _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old, hist_old,
+                  rhist_old, start[i], pj, hist, rhist, True)
+    reverse_index(start, pj, rstart, rpair)
+    return total
+
+
+@njit(cache=True)
+def reverse_index(start, pj, rstart, rpair):
+    """Counting sort of the pairs by partner: ``rpair[rstart[j]:rstart[j + 1]]`` are the pairs
+    whose partner is j, in increasing pair index. Shapes: start, rstart (N + 1,); pj, rpair (P,)."""
+    n = start.shape[0] - 1
+    total = start[n]
+    rstart[:] = 0
+    for p in range(total):
+        rstart[pj[p] + 1] += 1
+    for j in range(n):
+        rstart[j + 1] += rstart[j]
+    fill = rstart[:-1].copy()
+    for p in range(total):
+        j = pj[p]
+        rpair[fill[j]] = p
+        fill[j] += 1

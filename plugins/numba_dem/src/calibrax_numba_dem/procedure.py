@@ -35,7 +35,8 @@ APPROACH_SPEED = 0.2
 #: servo speed limit while settling and shearing, m/s: high enough never to act, because a limit
 #: that clips the head's response to contact spikes rectifies them and biases σ upwards
 SHEAR_SPEED_LIMIT = 1.0
-#: the fast approach stops with the blade tips this many particle diameters above the bed
+#: the fast approach stops with the blade tips this many particle diameters above the bed (and in
+#: any case a tenth of a radius above the highest particle: a blade placed into a sphere launches it)
 APPROACH_CLEARANCE = 0.5
 #: escape / blow-up thresholds
 MAX_SPEED = 20.0
@@ -173,7 +174,8 @@ class ShearTestDriver:
         spec, s, h = self.spec, self.sys, self.sys.head
         g = spec.geometry
         top = self.bed_top()
-        h[H_Z] = top + g.blade_height + APPROACH_CLEARANCE * 2.0 * spec.radius
+        highest = float(np.max(s.x[:, 2] + s.rad))
+        h[H_Z] = max(top + APPROACH_CLEARANCE * 2.0 * spec.radius, highest + 0.1 * spec.radius) + g.blade_height
         self.z_ceiling = h[H_Z] + 10.0 * spec.radius
         bed_mass = float(np.sum(s.mass))
         mass, damp, tau = servo_gains(spec.procedure.preshear_stress, self.area, spec.radius, self.e_star,
