@@ -15,6 +15,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from calibrax.core.packing import initial_packing
 from calibrax.core.sheartest import ShearCellSpec, StepRecord, shear_stress_from_torque
 from calibrax.errors import SimulationFailed
 
@@ -23,7 +24,6 @@ from .engine import DEMSystem, make_params
 from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX,
                      H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_WALL, P_MUR, P_MUR_BASE,
                      P_MUR_WALL, P_USE_HEAD)
-from .packing import lattice_column
 from .servo import servo_gains
 
 #: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's)
@@ -67,13 +67,8 @@ class ShearTestDriver:
         self.dt = spec.time_step
         self.rc = g.vessel_diameter / 2.0
         self.area = math.pi * g.head_radius**2
-        rng = np.random.default_rng(spec.numerics.seed)
-        n = spec.particle_count
-        radii = spec.size_distribution.sample(spec.radius, n, rng)
-        radii = radii[rng.permutation(n)]
+        radii, x, v = initial_packing(spec)
         self.r_mean = float(np.mean(radii))
-        x = lattice_column(radii, self.rc, rng)
-        v = rng.normal(0.0, 0.1, size=x.shape)
         e_star, g_star = effective_moduli(m.youngs_modulus, m.poisson_ratio)
         self.e_star = e_star
         mu_b, mur_b = spec.effective_base_friction()

@@ -132,7 +132,7 @@ def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius
     ``base_force`` (N, time-averaged over the last ``average_time``), ``weight`` (N, Σ m g) and
     ``kinetic_energy`` (J, at the end).
     """
-    from .packing import lattice_column
+    from calibrax.core.packing import lattice_column
 
     rc = 0.5 * cell_diameters * 2.0 * radius
     rng = np.random.default_rng(seed)
