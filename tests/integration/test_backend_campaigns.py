@@ -13,13 +13,14 @@ import shutil
 import pytest
 
 from calibrax import CampaignStore
-from tests.conftest import calibrax_cli, write_backend_campaign
+from tests.conftest import SHORT_TINY_CELL, calibrax_cli, write_backend_campaign
 
 
 @pytest.mark.parametrize("simulator, iterations", [("liggghts", 1), ("yade", 0)])
 def test_campaign_runs_to_the_end_on_the_real_engine(tmp_path, simulator, iterations):
     assert shutil.which(simulator), f"{simulator} is not installed: apt-get install -y {simulator}"
-    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations})
+    cell = {**SHORT_TINY_CELL, "procedure": {"preset": "paper", "preshear_rotation": 0.04, "shear_rotation": 0.04}}
+    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations}, cell=cell)
     total = 2 + 2 * iterations
     env = dict(os.environ)
     proc = calibrax_cli("run", str(path), env=env, timeout=1500)
