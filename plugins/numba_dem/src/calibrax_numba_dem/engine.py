@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 
 import numba
 import numpy as np
@@ -31,6 +32,21 @@ from .layout import (H_ACC_BASE, H_ACC_F, H_ACC_N, H_ACC_T, H_SIZE, H_TIME, P_BE
                      W_BASE_F, W_HEAD_F, W_HEAD_T, W_SIZE, WALL_SLOTS)
 from .neighbours import build_lists
 from .servo import head_drift, head_kick
+
+def prefer_openmp_threads() -> None:
+    """Make Numba pick its OpenMP threading layer first (then TBB, then its workqueue) unless the
+    user chose one with ``NUMBA_THREADING_LAYER``.
+
+    Each time step launches two parallel regions; on the quick cell (≈ 1400 particles, ≈ 170 µs a
+    step) TBB's per-launch cost ate the whole gain, and 2 threads ran 0.8× as fast as 1, while
+    GNU OpenMP gives 1.9× (``benchmarks/dem_throughput.py``). Simulations run in fresh processes
+    (fork + exec), so libgomp's fork restriction does not apply to them. Takes effect only before
+    the first parallel launch in the process."""
+    if os.environ.get("NUMBA_THREADING_LAYER", "default") == "default":
+        numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+
+
+prefer_openmp_threads()
 
 STATUS_OK = 0
 STATUS_OVERFLOW = 1
