@@ -4,6 +4,7 @@ every assertion through a module-scoped fixture."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -63,3 +64,17 @@ def test_steps_and_conventions(result):
     assert res.provenance.backend == "yade" and "YADE" in res.provenance.engine_version
     assert res.provenance.particle_count == SPEC.particle_count
     assert (workdir / "params.json").exists() and (workdir / "ft4_shear.log").exists()
+
+
+def test_consolidation_meets_numba_dems_stop_rule(result):
+    """The head turns for at least one preshear rotation, then stops at the preshear σ well before
+    the 0.12 s limit (YADE's tangential dashpot once made the loaded bed unstable: the head kept
+    sinking and the step always ran to its limit)."""
+    res, workdir = result
+    assert not [w for w in res.warnings if "consolidation" in w]
+    m = re.search(r"consolidated in ([0-9.]+) s \(head turned ([0-9.]+) rad\)", (workdir / "ft4_shear.log").read_text())
+    assert m, "no consolidation line in ft4_shear.log"
+    duration, turned = float(m.group(1)), float(m.group(2))
+    p = SPEC.procedure
+    assert max(0.01, p.preshear_rotation / p.rotation_rate) < duration < 0.12
+    assert turned == pytest.approx(duration * p.rotation_rate, rel=0.05)

@@ -11,8 +11,10 @@ What YADE computes (pkg/dem/HertzMindlin.cpp), for materials a, b and a contact 
 * F_n = k_no δ^{3/2}, k_no = 4/3 E_y √R; k_s = k_so √δ, k_so = 8 G_y √R;
 * with ``en`` (measured on 2023.02a, as in its source): c_n = 2 β_n √(m̄ k_n), k_n = 3/2 k_no √δ,
   β_n from Thornton et al. (2013)'s fit of e for a no-tension law, and the damped normal force
-  clipped at zero; c_s = 2 β_s √(m̄ k_s), β_s from ``es`` (m̄ = m of the particle against a fixed
-  body). The older α = −2√(5/6) ln e/√(ln²e + π²) √(2 E_y √R) form (LIGGGHTS' dashpot) is gone;
+  clipped at zero; c_s = 2 β_s √(m̄ k_s), β_s from ``es`` by the same fit (β_s = 0 for es = 1;
+  m̄ = m of the particle against a fixed body), added to the elastic shear force only while the
+  contact sticks and not bounded by the Coulomb limit. The older
+  α = −2√(5/6) ln e/√(ln²e + π²) √(2 E_y √R) form (LIGGGHTS' dashpot) is gone;
 * rolling (``includeMoment``): M_b −= k_r Δθ_bend, |M_b| ≤ η R_mean |F_n|; twisting k_tw.
 
 LIGGGHTS (and numba_dem): E* = E/(2(1−ν²)), G* = E/(4(2−ν)(1+ν)), k_n = 4/3 E* √(R*δ),
@@ -33,9 +35,15 @@ Remaining differences (also in the README):
    restitution is the same, but a damped impact lasts longer and goes less deep (two spheres at
    e = 0.3: contact time +3.7 %, peak overlap −11 %; ``verification.damped_hertz_impact``). YADE
    2023.02 has no unclipped law: LIGGGHTS' dashpot (``betan = −√(5/6) β``) with the clipping
-   would give e = 0.40 for e = 0.3, so ``en`` is kept (the calibrated parameter is e). The
-   tangential dashpot is dropped while sliding, and the Coulomb limit applies to the elastic part;
-2. (see 1) the clipping;
+   would give e = 0.40 for e = 0.3, so ``en`` is kept (the calibrated parameter is e);
+2. (see 1) the clipping; and **no tangential dashpot** (``es = 1``, β_s = 0; LIGGGHTS:
+   γ_t = −2√(5/6) β √(k_t m*)). YADE's tangential dashpot is not bounded by the Coulomb limit
+   and is switched off while the contact slides; with β_s = β_n (``es = e``, 0.454 at e = 0.3),
+   and still with LIGGGHTS' 0.327, it made a bed loaded at the preshear stress unstable at the
+   spec's time step (0.2 Δt_crit): particles spinning, ~30 % of the contacts sliding and ~20 %
+   at their rolling limit throughout the bed, the head's load relaxing by 80 % within 2 ms when
+   held still, and the head sinking steadily at constant σ (it never met the consolidation's stop
+   rule). β_s ≤ 0.2 or half the time step cured it; β_s = 0 is used (see :data:`SHEAR_RESTITUTION`);
 3. rolling stiffness: YADE's k_r is a constant, set here to EPSD2's k_r at the Hertz overlap of a
    particle pair carrying σ_pre (2r)² (the preshear stress), instead of following δ;
 4. rolling limit: η = μr/2 makes η R_mean = μr R* exact for equal spheres; for unequal ones YADE's
@@ -52,7 +60,12 @@ from dataclasses import dataclass
 
 from calibrax.core.sheartest import ShearCellSpec
 
-__all__ = ["YadeContactParams", "contact_params", "facet_material", "effective_moduli", "hertz_overlap"]
+__all__ = ["YadeContactParams", "contact_params", "facet_material", "effective_moduli", "hertz_overlap",
+           "SHEAR_RESTITUTION"]
+
+#: ``es`` given to ``Ip2_FrictMat_FrictMat_MindlinPhys``: 1 makes β_s = 0, i.e. no tangential dashpot
+#: (difference 2 in the module docstring: YADE's unbounded tangential dashpot destabilises a loaded bed)
+SHEAR_RESTITUTION = 1.0
 
 
 def effective_moduli(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:
@@ -84,7 +97,8 @@ class YadeContactParams:
     Attributes:
         young, poisson: the particles' E (Pa) and ν, as given.
         facet_young, facet_poisson: the facets' fictitious E_w (Pa) and ν_w (see :func:`facet_material`).
-        restitution: e, passed as ``en`` (and ``es``) to the Ip2 functor.
+        restitution: e, passed as ``en`` to the Ip2 functor.
+        shear_restitution: passed as ``es`` (1: no tangential dashpot, see :data:`SHEAR_RESTITUTION`).
         krot: constant rolling stiffness k_r, N·m/rad. eta: η = μr/2 (dimensionless).
         e_star: E* (Pa), for the servo's bed-stiffness estimate.
     """
@@ -94,6 +108,7 @@ class YadeContactParams:
     facet_young: float
     facet_poisson: float
     restitution: float
+    shear_restitution: float
     krot: float
     eta: float
     e_star: float
@@ -111,4 +126,5 @@ def contact_params(spec: ShearCellSpec) -> YadeContactParams:
     kn = 4.0 / 3.0 * e_star * math.sqrt(reff * delta)
     krot = 2.25 * kn * m.rolling_friction**2 * reff**2
     return YadeContactParams(young=m.youngs_modulus, poisson=m.poisson_ratio, facet_young=ew, facet_poisson=nuw,
-                             restitution=m.restitution, krot=krot, eta=0.5 * m.rolling_friction, e_star=e_star)
+                             restitution=m.restitution, shear_restitution=SHEAR_RESTITUTION, krot=krot,
+                             eta=0.5 * m.rolling_friction, e_star=e_star)

@@ -6,11 +6,13 @@ constant rolling stiffness ``krot``, rolling limit ``eta``) with
 reproduce LIGGGHTS' ``hertz`` + ``tangential history`` + ``rolling_friction epsd2`` (see
 :mod:`calibrax_yade.contact` for the mapping). Remaining differences from LIGGGHTS / numba_dem:
 
-1. damping: YADE 2023.02 derives β_n = β_s from ``en``/``es`` with Thornton et al. (2013)'s fit
-   for a no-tension law (the damped normal force is clipped at zero): the same restitution as
+1. damping: YADE 2023.02 derives β_n from ``en`` with Thornton et al. (2013)'s fit for a
+   no-tension law (the damped normal force is clipped at zero): the same restitution as
    LIGGGHTS, but a stronger dashpot (two spheres at e = 0.3: contact +3.7 % longer, peak overlap
-   −11 %); the tangential dashpot is dropped while sliding;
-2. (see 1) no attractive normal force at the end of a contact (LIGGGHTS: allowed);
+   −11 %);
+2. (see 1) no attractive normal force at the end of a contact (LIGGGHTS: allowed), and no
+   tangential dashpot (``es = 1``): YADE's, unbounded by the Coulomb limit, made a bed under the
+   preshear stress unstable at the spec's time step (see :mod:`calibrax_yade.contact`);
 3. the rolling stiffness k_r is a constant (EPSD2's value at the preshear stress's Hertz overlap);
 4. one rolling coefficient for every contact: exact (μr R*) for equal spheres; 0.75 μr r against
    facets (LIGGGHTS μr r), also against the frictionless lateral wall (numba_dem: none there);
@@ -18,10 +20,8 @@ reproduce LIGGGHTS' ``hertz`` + ``tangential history`` + ``rolling_friction epsd
 5. the cell is made of facets (polygonal vessel, fan-disc base and head), the facets carrying a
    fictitious material (ν_w = ν, E_w ≈ 1.58 E) that restores LIGGGHTS' wall stiffnesses exactly
    (YADE's facet contact uses R = 2r/3); the base is one large facet (no inner edges);
-6. the servo's v_ref is low-passed over one head–bed period (numba_dem: five), which makes the
-   mean σ of short windows less biased by the bed's dilation; no SJKR cohesion (YADE's Mindlin
-   adhesion is DMT, a different law), so ``cohesion`` is refused, and a base rolling friction
-   different from the particles' is refused.
+6. no SJKR cohesion (YADE's Mindlin adhesion is DMT, a different law), so ``cohesion`` is
+   refused, and a base rolling friction different from the particles' is refused.
 
 Geometry, packing (same seed → same initial particles), procedure and the σ/τ/bed-height
 conventions are numba_dem's (see the package README).
@@ -42,7 +42,7 @@ from calibrax.core.sheartest import (Provenance, ShearCellSpec, ShearTestResult,
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
-from .contact import contact_params
+from .contact import SHEAR_RESTITUTION, contact_params
 from .geometry import base_mesh, head_mesh, ribs_mesh, vessel_mesh
 from .runner import find_yade, run_yade, script_path, write_params, yade_version
 
@@ -58,6 +58,11 @@ APPROACH_CLEARANCE = 0.5
 MAX_SPEED = 20.0
 #: the head's servo is updated, and force/torque sampled, every this many time steps
 SERVO_SUBSTEPS = 1
+#: the servo's head mass as a fraction of the bed's mass, and its v_ref time constant in (estimated)
+#: head–bed periods: numba_dem's (``calibrax_numba_dem.servo``: a light head, one period), which keep
+#: the mean σ of each window within a few per cent (see the README's servo paragraph)
+SERVO_MASS_FRACTION = 0.25
+SERVO_TAU_PERIODS = 1.0
 #: default timeout of one YADE run, s (override with $CALIBRAX_YADE_TIMEOUT or the constructor)
 DEFAULT_TIMEOUT = 6 * 3600.0
 
@@ -80,6 +85,7 @@ def build_params(spec: ShearCellSpec) -> dict:
         "dt": spec.time_step, "gravity": 9.81, "pour_gravity": POUR_GRAVITY, "pour_friction": POUR_FRICTION,
         "density": m.density, "radius": spec.radius, "young": cp.young, "poisson": cp.poisson,
         "facet_young": cp.facet_young, "facet_poisson": cp.facet_poisson, "restitution": cp.restitution,
+        "shear_restitution": cp.shear_restitution,
         "krot": cp.krot, "eta": cp.eta, "e_star": cp.e_star,
         "friction": m.sliding_friction, "wall_friction": g.wall_friction, "base_friction": mu_b,
         "head_friction": spec.effective_head_friction(),
@@ -93,6 +99,7 @@ def build_params(spec: ShearCellSpec) -> dict:
         "rotation_rate": p.rotation_rate, "preshear_rotation": p.preshear_rotation,
         "shear_rotation": p.shear_rotation, "settle_time": p.settle_time,
         "sample_interval": spec.numerics.sample_interval, "servo_substeps": SERVO_SUBSTEPS,
+        "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
         "approach_speed": APPROACH_SPEED, "shear_speed_limit": SHEAR_SPEED_LIMIT,
         "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED,
     }
@@ -199,5 +206,7 @@ class YadeSimulator:
                           particle_count=int(out["particles"]), threads=threads,
                           extra={"time_step": spec.time_step, "simulated_time": out.get("simulated_time"),
                                  "servo_sigma_errors": out.get("sigma_errors", []),
-                                 "stress_area": "pi*head_radius**2", "servo_substeps": SERVO_SUBSTEPS})
+                                 "stress_area": "pi*head_radius**2", "servo_substeps": SERVO_SUBSTEPS,
+                                 "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
+                                 "shear_restitution": SHEAR_RESTITUTION})
         return ShearTestResult.from_steps(spec, steps, bulk, prov, list(out.get("warnings", [])))

@@ -198,9 +198,9 @@ def _sphere_on_base(*, radius: float, youngs_modulus: float, poisson_ratio: floa
     z0 = radius - _rest_overlap(radius, m, cp.e_star, g)  # the facet material gives LIGGGHTS' wall k_n
     params = {"radius": radius, "young": cp.young, "poisson": cp.poisson, "facet_young": cp.facet_young,
               "facet_poisson": cp.facet_poisson, "density": density, "restitution": cp.restitution,
-              "friction": friction, "krot": cp.krot, "eta": cp.eta, "gravity": g, "dt": dt, "z0": z0,
-              "velocity": list(velocity), "spin": list(spin), "nsteps": int(nsteps), "every": int(every),
-              "half_width": 0.1}
+              "shear_restitution": cp.shear_restitution, "friction": friction, "krot": cp.krot, "eta": cp.eta,
+              "gravity": g, "dt": dt, "z0": z0, "velocity": list(velocity), "spin": list(spin),
+              "nsteps": int(nsteps), "every": int(every), "half_width": 0.1}
     out = _run_script("sphere_on_base.py", params, threads, workdir, timeout)
     return np.asarray(out["rows"], dtype=float)
 

@@ -86,12 +86,18 @@ POUR_FRICTION = {mat_p: POUR_MU, mat_w: min(P["wall_friction"], POUR_MU), mat_b:
 
 
 # ------------------------------------------------------------------ bodies
+# collision masks: spheres meet spheres and facets, facets never meet facets (the collider's
+# avoidSelfInteractionMask): without them the collider kept ~3 300 facet-facet pairs (head disc
+# fan, blades, vessel, base) that the interaction loop dispatched every step for nothing
+SPHERE_MASK, FACET_MASK, NO_SELF_MASK = 1, 3, 2
+
+
 def add_facets(flat, material):
     ids = []
     for k in range(0, len(flat), 9):
         v = flat[k:k + 9]
         f = utils.facet([(v[0], v[1], v[2]), (v[3], v[4], v[5]), (v[6], v[7], v[8])], material=material,
-                        fixed=True, wire=True)
+                        fixed=True, wire=True, mask=FACET_MASK)
         ids.append(O.bodies.append(f))
     return ids
 
@@ -103,7 +109,7 @@ pos = P["positions"]
 vel = P["velocities"]
 sphere_ids = []
 for i, r in enumerate(radii):
-    b = utils.sphere((pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]), r, material=mat_p)
+    b = utils.sphere((pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]), r, material=mat_p, mask=SPHERE_MASK)
     b.state.vel = Vector3(vel[3 * i], vel[3 * i + 1], vel[3 * i + 2])
     sphere_ids.append(O.bodies.append(b))
 N = len(sphere_ids)
@@ -114,7 +120,7 @@ disc_ref = None  # a facet of the head's disc: its z is the head's height
 
 # ------------------------------------------------------------------ engines
 ip2 = Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(matches=(), algo="val", val=P["restitution"]),
-                                        es=MatchMaker(matches=(), algo="val", val=P["restitution"]),
+                                        es=MatchMaker(matches=(), algo="val", val=P["shear_restitution"]),
                                         krot=0.0, ktwist=0.0, eta=0.0,
                                         frictAngle=friction_matches(POUR_MU, POUR_FRICTION[mat_w], POUR_MU, POUR_MU))
 law = Law2_ScGeom_MindlinPhys_Mindlin(includeMoment=True)
@@ -128,7 +134,7 @@ head_engine.dead = True  # switched on when the head is placed
 # the head's kinematic engine is in the loop from the start (with no bodies until the head is
 # placed): the engine list is never replaced mid-run
 O.engines = [ForceResetter(),
-             InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
+             InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()], avoidSelfInteractionMask=NO_SELF_MASK),
              InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()], [ip2], [law]),
              head_engine, newton, PyRunner(iterPeriod=NSUB, command="servo_tick()")]
 O.dt = DT
@@ -171,19 +177,17 @@ def take_accumulators():
 
 def servo_gains(stress, bed_height):
     """Mass (kg), damping (N s/m), tau_ref (s) as numba_dem's servo_gains (columns of Hertz
-    contacts), except tau_ref."""
+    contacts): the head's mass is servo_mass_fraction of the bed's, critically damped on the
+    estimated bed stiffness, v_ref low-passed over servo_tau_periods head-bed periods."""
     f = stress * (2.0 * R0) ** 2
     reff = R0 / 2.0
     delta = (f / (4.0 / 3.0 * P["e_star"] * math.sqrt(reff))) ** (2.0 / 3.0)
     k_c = 2.0 * P["e_star"] * math.sqrt(reff * delta)
     k_bed = k_c * AREA / (2.0 * R0 * bed_height)
-    mass = BED_MASS
+    mass = P["servo_mass_fraction"] * BED_MASS
     damp = 2.0 * math.sqrt(k_bed * mass)
     period = 2.0 * math.pi * math.sqrt(mass / k_bed)
-    # v_ref low-passed over ONE head-bed period (numba_dem: five): the damper still acts on the
-    # resonance, and the lag of v_ref behind a dilating bed, which biases the mean sigma by
-    # c * V * tau_ref / T in a window of length T, is five times smaller
-    return mass, damp, period
+    return mass, damp, P["servo_tau_periods"] * period
 
 
 def head_z():
@@ -324,11 +328,17 @@ def consolidate():
     set_servo(P["preshear_stress"], P["approach_speed"])
     log("t=%.5f s head placed at %.2f mm (bed top %.2f mm); %d head facets; servo mass %.3g kg, damping %.3g N s/m, "
         "tau_ref %.3g s" % (O.time, z0 * 1e3, top * 1e3, len(ids), mass, damp, tau))
+    # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
     S["omega"] = RATE
     z_prev = head_z()
     t0 = O.time
+    phi0 = S["phi"]
     target = P["preshear_stress"]
     sigma = float("nan")
+    # numba_dem's rule: at least one preshear rotation of turning (the blades must work their way
+    # in and the bed compact before the first preshear is recorded), then until the head has
+    # stopped sinking (< 1/200 diameter in 3 ms) with sigma (last 1 ms) within 5 % of its target
+    t_min = max(0.01, P["preshear_rotation"] / RATE)
     while True:
         run_time(2.0e-3, "consolidation")
         take_accumulators()
@@ -338,14 +348,14 @@ def consolidate():
         z = head_z()
         moved = abs(z - z_prev)
         z_prev = z
-        if O.time - t0 > 0.01 and moved < 0.005 * 2 * R0 and abs(sigma / target - 1) < 0.05:
+        if O.time - t0 > t_min and moved < 0.005 * 2 * R0 and abs(sigma / target - 1) < 0.05:
             break
         if O.time - t0 > 0.12:
             WARN.append("consolidation: the head was still moving after 0.12 s")
             break
     S["omega"] = 0.0
-    log("t=%.5f s consolidated: head at %.2f mm, sigma = %.0f Pa (target %.0f), bulk density %.0f kg/m3"
-        % (O.time, head_z() * 1e3, sigma, target, bulk()))
+    log("t=%.5f s consolidated in %.4f s (head turned %.3f rad): head at %.2f mm, sigma = %.0f Pa (target %.0f), "
+        "bulk density %.0f kg/m3" % (O.time, O.time - t0, S["phi"] - phi0, head_z() * 1e3, sigma, target, bulk()))
 
 
 def unload_torque(max_rotation=0.05):

@@ -1,9 +1,10 @@
 # calibrax-yade verification: one sphere on a flat base facet under gravity, run as
 #     yade -n -j 1 -x sphere_on_base.py PARAMS.json
 # Fixed file; every number comes from the JSON parameter file. The base is one large facet with
-# the shear test's fictitious facet material and the shear test's contact law (Mindlin, en/es = e,
-# constant krot, eta); the sphere starts at its static overlap with a velocity and a spin. Writes
-# result.json next to the parameter file: rows (step, vx, wx) sampled every `every` steps.
+# the shear test's fictitious facet material and the shear test's contact law (Mindlin, en = e,
+# es = shear_restitution, constant krot, eta); the sphere starts at its static overlap with a
+# velocity and a spin. Writes result.json next to the parameter file: rows (step, vx, wx) sampled
+# every `every` steps.
 import json
 import math
 import os
@@ -28,7 +29,7 @@ s = O.bodies.append(utils.sphere((0.0, 0.0, P["z0"]), r, material=mat_p))
 O.bodies[s].state.vel = Vector3(*P["velocity"])
 O.bodies[s].state.angVel = Vector3(*P["spin"])
 ip2 = Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(matches=(), algo="val", val=P["restitution"]),
-                                        es=MatchMaker(matches=(), algo="val", val=P["restitution"]),
+                                        es=MatchMaker(matches=(), algo="val", val=P["shear_restitution"]),
                                         krot=P["krot"], ktwist=0.0, eta=P["eta"])
 rows = []
 
