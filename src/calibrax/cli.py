@@ -73,8 +73,9 @@ def _parser() -> argparse.ArgumentParser:
 
     conv = sub.add_parser("converge", help="fidelity study: particles per diameter, time step, shear rate",
                           description="Run the campaign's spec at several fidelity settings with N seeds each and "
-                                      "state the cheapest setting whose C and AIF lie within the uncertainty of the "
-                                      "finest (converge.md, converge.png/svg).")
+                                      "state the cheapest setting whose C, AIF and bulk density lie within the "
+                                      "uncertainty of the finest (bulk density: at least within 2 %) "
+                                      "(converge.md, converge.png/svg).")
     conv.add_argument("config", type=Path, help="campaign YAML file")
     conv.add_argument("--particles-per-diameter", metavar="LIST", help="e.g. 15,20,25,34 (the paper: 25,34,46,63)")
     conv.add_argument("--dt-fraction", metavar="LIST", help="fractions of the critical time step, e.g. 0.05,0.1,0.2")

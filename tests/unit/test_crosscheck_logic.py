@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from calibrax.core.convergence import OPTIONS, KNOBS
+from calibrax.core.convergence import DENSITY_TOLERANCE, KNOBS, OPTIONS, within_finest
 from calibrax.core.crosscheck import MICRO_TOLERANCE, micro_agreement, micro_errors
 
 
@@ -60,3 +60,25 @@ def test_a_failed_micro_case_is_reported():
 @pytest.mark.parametrize("knob", sorted(KNOBS))
 def test_every_converge_knob_names_its_command_line_option(knob):
     assert OPTIONS[knob].startswith("--")
+
+
+def converge_summary(c, aif, rho, rho_u=1.0):
+    return {"cohesion": c, "cohesion_u": 300.0, "aif": aif, "aif_u": 2.0, "bulk_density": rho, "bulk_density_u": rho_u}
+
+
+def test_converge_needs_c_aif_and_bulk_density_within_the_finest():
+    finest = converge_summary(1000.0, 30.0, 1550.0)
+    assert within_finest(converge_summary(1200.0, 28.0, 1540.0), finest)
+    # C and AIF alike, but the coarse cell's bed is 8 % looser: not converged
+    assert not within_finest(converge_summary(1200.0, 28.0, 1428.0), finest)
+    assert not within_finest(converge_summary(3000.0, 28.0, 1550.0), finest)
+    assert not within_finest(converge_summary(1000.0, 40.0, 1550.0), finest)
+
+
+def test_converge_density_tolerance_is_the_larger_of_seed_spread_and_the_fixed_share():
+    finest = converge_summary(1000.0, 30.0, 1500.0, rho_u=float("nan"))  # one seed: no spread
+    edge = 1500.0 * (1 - DENSITY_TOLERANCE)
+    assert within_finest(converge_summary(1000.0, 30.0, edge + 1.0, rho_u=float("nan")), finest)
+    assert not within_finest(converge_summary(1000.0, 30.0, edge - 1.0, rho_u=float("nan")), finest)
+    wide = converge_summary(1000.0, 30.0, 1500.0, rho_u=40.0)
+    assert within_finest(converge_summary(1000.0, 30.0, 1400.0, rho_u=40.0), wide)  # 100 ≤ 2·√2·40

@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Ellipse  # noqa: E402
 
-from calibrax.core.convergence import Verdict, inertial_numbers  # noqa: E402
+from calibrax.core.convergence import DENSITY_TOLERANCE, Verdict, inertial_numbers  # noqa: E402
 from calibrax.core.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
 from calibrax.core.study import CaseOutcome  # noqa: E402
 from calibrax.report.figures import _save  # noqa: E402
@@ -212,7 +212,8 @@ def converge_markdown(outcomes: list[CaseOutcome], results: list[Verdict]) -> st
     for v in results:
         lines += [f"**{v.sentence()}.**", ""]
     lines += ["Within: |C − C_finest| ≤ 2·√(u² + u_finest²) and the same for AIF, u = max(regression s.e., "
-              "seed s.d./√n).", "", table_head(outcomes, first="setting"), *[outcome_row(o) for o in outcomes]]
+              "seed s.d./√n); and |ρ − ρ_finest| ≤ max(2·√(u² + u_finest²), "
+              f"{DENSITY_TOLERANCE:.0%} of ρ_finest) for the bulk density after preshear, u = seed s.d./√n.", "", table_head(outcomes, first="setting"), *[outcome_row(o) for o in outcomes]]
     lines += ["", "| setting | particles | cell diameter / particle diameter | time step [s] | "
                   "inertial number I of the shear steps | within the finest's uncertainty |",
               "|---|---|---|---|---|---|"]
@@ -247,7 +248,7 @@ def converge_figure(outcomes: list[CaseOutcome], results: list[Verdict], folder:
             ok = [(value, s.get(q, math.nan) * scale) for value, s, within in v.rows if within and value != v.finest]
             if ok:
                 ax.plot(*zip(*ok), "o", ms=12, mfc="none", mec="tab:green", mew=1.6,
-                        label="C and AIF within the finest's 2·√(u² + u_f²)")
+                        label="C, AIF and ρ within the finest's uncertainty")
             if q in fine and math.isfinite(fine[f"{q}_u"]):
                 ax.axhspan((fine[q] - 2 * fine[f"{q}_u"]) * scale, (fine[q] + 2 * fine[f"{q}_u"]) * scale,
                            color="tab:green", alpha=0.15, label="finest ± 2u")
