@@ -147,6 +147,12 @@ def test_crosscheck_table_shows_peaks_density_c_aif_and_agreement_per_backend(cr
         others = [o for o in BACKENDS if o != b]
         assert all(f"{o}: C " in cells[8] for o in others), cells[8]
     assert "## Agreement between backends" in text and "## Micro-level checks" in text
+    servo = text.split("## σ while shearing")[1].split("## Agreement")[0]
+    for b in BACKENDS:  # how steadily each servo held σ, σ at the peak, steady τ/σ: finite numbers
+        row = next(r for r in servo.splitlines() if r.startswith(f"| P0: base spec | {b} |"))
+        sd, offset, friction = (c.strip() for c in row.strip("|").split("|")[2:5])
+        assert 0.0 <= float(sd.rstrip(" %")) < 50.0 and abs(float(offset.rstrip(" %"))) < 50.0, row
+        assert 0.05 < float(friction) < 2.0, row
     for case in MICRO_CASES:
         assert f"| {case} |" in text
     assert "Known differences of the contact laws" in text or "**no**" not in text.split("## Micro-level")[1]

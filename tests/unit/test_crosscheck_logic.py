@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+
+from calibrax.core.sheartest import Provenance, ShearCellSpec, ShearTestResult, StepRecord
+from calibrax.core.study import shear_window_diagnostics
 
 from calibrax.core.convergence import DENSITY_TOLERANCE, KNOBS, OPTIONS, within_finest
 from calibrax.core.crosscheck import MICRO_TOLERANCE, micro_agreement, micro_errors
@@ -82,3 +86,25 @@ def test_converge_density_tolerance_is_the_larger_of_seed_spread_and_the_fixed_s
     assert not within_finest(converge_summary(1000.0, 30.0, edge - 1.0, rho_u=float("nan")), finest)
     wide = converge_summary(1000.0, 30.0, 1500.0, rho_u=40.0)
     assert within_finest(converge_summary(1000.0, 30.0, 1400.0, rho_u=40.0), wide)  # 100 ≤ 2·√2·40
+
+
+def shear_result(sigma_swing: float) -> ShearTestResult:
+    """A result whose one shear step holds σ = 9 kPa (1 + swing·sin) with τ = 0.5 σ: real data
+    structures, made by hand."""
+    spec = ShearCellSpec().replace(procedure={"shear_stresses": (9000.0,)})
+    rot = np.linspace(0.0, 0.12, 200)
+    sigma = 9000.0 * (1.0 + sigma_swing * np.sin(40.0 * rot / 0.12))
+    step = StepRecord("shear", 9000.0, rot / 5.0, rot, 0.5 * sigma, sigma, np.full(rot.size, 0.02))
+    pre = StepRecord("preshear", 15000.0, rot / 5.0, rot, np.full(rot.size, 7000.0), np.full(rot.size, 15000.0),
+                     np.full(rot.size, 0.02))
+    return ShearTestResult.from_steps(spec, [pre, step], [1500.0], Provenance("hand", "-", "-", 0, 1.0, 100))
+
+
+def test_shear_window_diagnostics_see_a_swinging_sigma_and_the_peak_riding_on_it():
+    steady = shear_window_diagnostics(shear_result(0.0))
+    assert steady["sigma_sd"] == pytest.approx(0.0, abs=1e-12)
+    assert steady["steady_friction"] == pytest.approx(0.5)
+    swinging = shear_window_diagnostics(shear_result(0.1))
+    assert swinging["sigma_sd"] == pytest.approx(0.1 / np.sqrt(2), rel=0.1)
+    assert swinging["steady_friction"] == pytest.approx(0.5, rel=1e-3)
+    assert swinging["peak_sigma_offset"] > 0.05  # the largest τ sits where σ is high

@@ -41,6 +41,31 @@ class StudyCase:
     coords: dict[str, float] = field(default_factory=dict)
 
 
+def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
+    """How the servo held σ while the head sheared, and the steady friction it left, averaged over
+    the shear steps of one result (the second half of each window is taken as steady flow):
+
+    * ``sigma_sd``: s.d. of σ in the second half of the window / target σ (fraction);
+    * ``peak_sigma_offset``: σ measured at the τ peak / target σ − 1 (fraction). The peak is the
+      largest τ of the window, and τ follows σ, so a servo that lets σ swing reads a higher peak;
+    * ``steady_friction``: mean τ / mean σ over the second half of the window.
+    """
+    sd, offset, friction = [], [], []
+    k = 0
+    for step in result.steps:
+        if step.kind != "shear" or len(step.normal_stress) < 4:
+            continue
+        half = len(step.normal_stress) // 2
+        sigma, tau = step.normal_stress[half:], step.shear_stress[half:]
+        sd.append(float(np.std(sigma)) / step.target_stress)
+        friction.append(float(np.mean(tau) / np.mean(sigma)))
+        if k < len(result.peak_normal_stress):
+            offset.append(float(result.peak_normal_stress[k]) / step.target_stress - 1.0)
+        k += 1
+    mean = lambda xs: float(np.nanmean(xs)) if xs else math.nan  # noqa: E731
+    return {"sigma_sd": mean(sd), "peak_sigma_offset": mean(offset), "steady_friction": mean(friction)}
+
+
 @dataclass
 class CaseOutcome:
     """What one case gave: per-seed results (None where a seed failed) and the statistics."""
@@ -75,7 +100,8 @@ class CaseOutcome:
     def summary(self) -> dict[str, float]:
         """C and AIF (pooled fit) with their regression s.e., the seed-to-seed s.d., and the
         uncertainty of the estimate u = max(regression s.e., s.d./√n); mean peaks per step (Pa),
-        bulk density after the first preshear (kg/m³) with its seed s.d. and u = s.d./√n."""
+        bulk density after the first preshear (kg/m³) with its seed s.d. and u = s.d./√n; the
+        seeds' mean :func:`shear_window_diagnostics` (with ``_sd``, their seed s.d.)."""
         locus = self.locus()
         loci = self.seed_loci()
         n = len(loci)
@@ -96,6 +122,11 @@ class CaseOutcome:
             "particles": float(self.good[0].provenance.particle_count),
         })
         out["bulk_density_u"] = out["bulk_density_sd"] / math.sqrt(len(self.good))
+        windows = [shear_window_diagnostics(r) for r in self.good]
+        for key in windows[0]:
+            values = [w[key] for w in windows]
+            out[key] = float(np.nanmean(values))
+            out[f"{key}_sd"] = float(np.nanstd(values, ddof=1)) if len(values) > 1 else float("nan")
         peaks = np.stack([r.peak_shear_stress for r in self.good])
         for k, sigma in enumerate(self.good[0].target_normal_stress):
             out[f"peak_{sigma:.0f}"] = float(peaks[:, k].mean())

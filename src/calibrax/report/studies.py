@@ -87,6 +87,27 @@ def _agreement_cell(o: CaseOutcome, agree: list[Agreement]) -> str:
                      for b, q in parts.items())
 
 
+def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
+    """Lines of the "σ while shearing" section: how steadily each backend's servo held σ in the
+    shear windows, σ at the τ peak, and the steady τ/σ (see ``study.shear_window_diagnostics``)."""
+    lines = ["## σ while shearing", "",
+             "The peak is the largest τ of a shear window and τ follows σ: a servo that lets σ swing reads a "
+             "higher peak at the same target. Where backends' peaks differ, compare these before the contact "
+             "laws. Steady: the second half of each window; mean over shear steps and seeds (± seed s.d.).", "",
+             "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ |",
+             "|---|---|---|---|---|"]
+    for o in outcomes:
+        s = o.summary()
+
+        def cell(key: str, scale: float, digits: str, unit: str) -> str:
+            v, sd = s.get(key, math.nan), s.get(f"{key}_sd", math.nan)
+            return _fmt(v * scale, digits) + (f" ± {sd * scale:{digits.lstrip('+')}}" if math.isfinite(sd) else "") + unit
+
+        lines.append(f"| {o.case.label} | {o.case.backend} | {cell('sigma_sd', 100, '.1f', ' %')} | "
+                     f"{cell('peak_sigma_offset', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} |")
+    return lines + [""]
+
+
 def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], micro_rows: list[MicroRow],
                         micro_checks: dict | None = None, known: dict | None = None,
                         material: dict[str, float] | None = None) -> str:
@@ -97,6 +118,7 @@ def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], mic
              "seeds' own fits; agreement: |Δ| ≤ 2·√(u_a² + u_b²), u = max(regression s.e., seed s.d./√n) (ρ_bulk: "
              "u = seed s.d./√n).", "",
              table_head(outcomes, agreement=True), *[outcome_row(o, _agreement_cell(o, agree)) for o in outcomes], "",
+             *servo_table(outcomes),
              "## Agreement between backends", "",
              "| case | quantity | backends | Δ | limit 2·√(u_a² + u_b²) | agree |", "|---|---|---|---|---|---|"]
     names = {"cohesion": ("C", ".0f", " Pa"), "aif": ("AIF", ".1f", "°"), "bulk_density": ("ρ_bulk", ".0f", " kg/m³")}
