@@ -107,4 +107,4 @@ def test_shear_window_diagnostics_see_a_swinging_sigma_and_the_peak_riding_on_it
     swinging = shear_window_diagnostics(shear_result(0.1))
     assert swinging["sigma_sd"] == pytest.approx(0.1 / np.sqrt(2), rel=0.1)
     assert swinging["steady_friction"] == pytest.approx(0.5, rel=1e-3)
-    assert swinging["peak_sigma_offset"] > 0.05  # the largest τ sits where σ is high
+    assert swinging["sigma_offset_at_peak"] > 0.05  # the largest τ sits where σ is high

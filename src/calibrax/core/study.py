@@ -46,7 +46,7 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
     the shear steps of one result (the second half of each window is taken as steady flow):
 
     * ``sigma_sd``: s.d. of σ in the second half of the window / target σ (fraction);
-    * ``peak_sigma_offset``: σ measured at the τ peak / target σ − 1 (fraction). The peak is the
+    * ``sigma_offset_at_peak``: σ measured at the τ peak / target σ − 1 (fraction). The peak is the
       largest τ of the window, and τ follows σ, so a servo that lets σ swing reads a higher peak;
     * ``steady_friction``: mean τ / mean σ over the second half of the window.
     """
@@ -63,7 +63,7 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
             offset.append(float(result.peak_normal_stress[k]) / step.target_stress - 1.0)
         k += 1
     mean = lambda xs: float(np.nanmean(xs)) if xs else math.nan  # noqa: E731
-    return {"sigma_sd": mean(sd), "peak_sigma_offset": mean(offset), "steady_friction": mean(friction)}
+    return {"sigma_sd": mean(sd), "sigma_offset_at_peak": mean(offset), "steady_friction": mean(friction)}
 
 
 @dataclass

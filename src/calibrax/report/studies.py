@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from pathlib import Path
 
@@ -28,7 +29,7 @@ def _fmt(v: float, digits: str = ".0f") -> str:
 
 
 def _peak_keys(s: dict[str, float]) -> list[str]:
-    return [k for k in s if k.startswith("peak_") and not k.endswith("_sd")]
+    return [k for k in s if re.fullmatch(r"peak_\d+", k)]
 
 
 def outcome_row(o: CaseOutcome, agree: str | None = None) -> str:
@@ -104,7 +105,7 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
             return _fmt(v * scale, digits) + (f" ± {sd * scale:{digits.lstrip('+')}}" if math.isfinite(sd) else "") + unit
 
         lines.append(f"| {o.case.label} | {o.case.backend} | {cell('sigma_sd', 100, '.1f', ' %')} | "
-                     f"{cell('peak_sigma_offset', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} |")
+                     f"{cell('sigma_offset_at_peak', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} |")
     return lines + [""]
 
 
