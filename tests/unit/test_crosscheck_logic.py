@@ -108,3 +108,16 @@ def test_shear_window_diagnostics_see_a_swinging_sigma_and_the_peak_riding_on_it
     assert swinging["sigma_sd"] == pytest.approx(0.1 / np.sqrt(2), rel=0.1)
     assert swinging["steady_friction"] == pytest.approx(0.5, rel=1e-3)
     assert swinging["sigma_offset_at_peak"] > 0.05  # the largest τ sits where σ is high
+
+
+def test_a_result_whose_head_lost_the_bed_is_a_failed_simulation():
+    from calibrax.errors import SimulationFailed
+
+    spec = ShearCellSpec().replace(procedure={"shear_stresses": (9000.0,)})
+    rot = np.linspace(0.0, 0.12, 50)
+    ones = np.ones(rot.size)
+    pre = StepRecord("preshear", 15000.0, rot / 5.0, rot, 7000.0 * ones, 15000.0 * ones, 0.02 * ones)
+    lifted = StepRecord("shear", 9000.0, rot / 5.0, rot, 30.0 * ones, 40.0 * ones, 0.03 * ones)  # σ ≈ 0
+    with pytest.raises(SimulationFailed, match="lost the bed") as info:
+        ShearTestResult.from_steps(spec, [pre, lifted], [1500.0], Provenance("hand", "-", "-", 0, 1.0, 100))
+    assert info.value.kind == "invalid"

@@ -21,7 +21,7 @@ from typing import Any, Literal
 import numpy as np
 
 from calibrax.core.yieldlocus import MohrAnalysis, YieldLocus
-from calibrax.errors import SpecError
+from calibrax.errors import SimulationFailed, SpecError
 
 __all__ = [
     "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",
@@ -491,6 +491,11 @@ def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> 
 
 
 # ----------------------------------------------------------------------------- results
+#: a step whose mean measured σ is below this fraction of its target lost the bed (the servo let the
+#: head lift off): the simulation is a failure, not a result (seen: LIGGGHTS' PI servo at μr = 0)
+LOST_BED_FRACTION = 0.5
+
+
 @dataclass(frozen=True)
 class StepRecord:
     """Time series of one preshear or shear step, each array shape (n,).
@@ -556,6 +561,12 @@ class ShearTestResult:
         """Read peaks, preshear steady values and inertial numbers off the steps, the same way for
         every backend. ``bulk_density[k]`` is the bed's density after the k-th preshear (kg/m³)."""
         warns = list(warnings or [])
+        for k, s in enumerate(steps):
+            if s.normal_stress.size and not np.mean(s.normal_stress) >= LOST_BED_FRACTION * s.target_stress:
+                raise SimulationFailed(
+                    f"the head lost the bed: {s.kind} step {k} held a mean σ of {np.mean(s.normal_stress):.0f} Pa "
+                    f"against its target {s.target_stress:.0f} Pa (below {LOST_BED_FRACTION:.0%}); its peaks "
+                    "would mean nothing", kind="invalid")
         shear = [s for s in steps if s.kind == "shear"]
         pre = [s for s in steps if s.kind == "preshear"]
         peaks, sig, pos, inert, tau_pre, sig_pre = [], [], [], [], [], []
