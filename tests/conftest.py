@@ -7,7 +7,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
+# The thread-count determinism test of numba_dem compares 1 and 2 threads; Numba caps its threads
+# at NUMBA_NUM_THREADS (the core count by default), so a 1-core machine gets 2 here (set before Numba
+# is imported).
+if (os.cpu_count() or 1) < 2:
+    os.environ.setdefault("NUMBA_NUM_THREADS", "2")
+
+import numpy as np  # noqa: E402
 import pytest
 import yaml
 
