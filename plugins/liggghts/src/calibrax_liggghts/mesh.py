@@ -1,12 +1,12 @@
 """Triangle meshes of the FT4 cell for LIGGGHTS, written as ASCII STL, and a checker for them.
 
-The geometry follows the numba_dem backend exactly (see its ``geometry.py``):
+The geometry follows the numba_dem backend exactly (see its ``geometry.py``); the lateral wall is
+not a mesh but LIGGGHTS' analytic cylinder (see ``script.py``):
 
 * base: the plane z = 0, a disc slightly wider than the vessel;
 * ribs (optional): ``base_ribs`` vertical radial plates of height ``rib_height`` at angles
   2πk/n, from the axis out to the vessel wall (they start 0.05 R off the axis so that the plates do
   not share their inner edge);
-* vessel: the lateral wall, a cylinder of radius D/2 (vertices on the circle);
 * head: in its own frame, a disc of radius ``head_radius`` at z = 0 (its lower face is the head's
   height) with ``blade_count`` thin radial blades hanging below it, from ``hub_radius`` to
   ``head_radius``, down to z = −``blade_height``; blade k lies at angle 2πk/n at rotation 0.
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Mesh", "base_mesh", "ribs_mesh", "vessel_mesh", "head_mesh", "write_stl", "read_stl", "check_stl",
+__all__ = ["Mesh", "base_mesh", "ribs_mesh", "head_mesh", "write_stl", "read_stl", "check_stl",
            "MeshError"]
 
 Mesh = np.ndarray  # triangles, shape (n, 3, 3), m
@@ -69,23 +69,6 @@ def ribs_mesh(vessel_radius: float, count: int, height: float, particle_radius: 
     """``count`` radial ribs of height ``height`` on the base."""
     s0 = 0.05 * particle_radius
     return np.concatenate([_plate(2.0 * math.pi * k / count, s0, vessel_radius, 0.0, height) for k in range(count)])
-
-
-def vessel_mesh(vessel_radius: float, z_top: float, particle_radius: float, z_bottom: float = 0.0) -> Mesh:
-    """The lateral wall: a cylinder of radius ``vessel_radius`` from ``z_bottom`` to ``z_top``."""
-    n = segments_for(vessel_radius, particle_radius)
-    ang = 2.0 * math.pi * np.arange(n) / n
-    pts = np.stack([vessel_radius * np.cos(ang), vessel_radius * np.sin(ang)], axis=1)
-    tris = []
-    for k in range(n):
-        p, q = pts[k], pts[(k + 1) % n]
-        a = [p[0], p[1], z_bottom]
-        b = [q[0], q[1], z_bottom]
-        c = [q[0], q[1], z_top]
-        d = [p[0], p[1], z_top]
-        tris.append([a, b, c])
-        tris.append([a, c, d])
-    return np.asarray(tris, dtype=float)
 
 
 def head_mesh(head_radius: float, hub_radius: float, blade_count: int, blade_height: float,

@@ -63,13 +63,6 @@ APPROACH_LOAD = 0.3
 SERVO_BANDWIDTH = 20000.0
 SERVO_INTEGRAL = 0.5
 
-#: the lateral wall as LIGGGHTS' analytic cylinder (``wall/gran … primitive … zcylinder``, exact, as
-#: numba_dem's) instead of a polygon mesh. A polygon whose chord sag is 1 % of r (9 µm in ``quick``)
-#: is corrugated on the scale of the contacts (Hertz overlap at 15 kPa ≈ 0.3 µm): particles sliding
-#: along it must move in and out by the sag at every facet, which acts as wall friction on a wall
-#: meant to be frictionless
-ANALYTIC_VESSEL = True
-
 T_BASE, T_WALL, T_HEAD, T_POUR, T_PART = 1, 2, 3, 4, 5
 NTYPES = 5
 
@@ -177,15 +170,13 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
 
     # ---------------------------------------------------------------- meshes
     meshes.write_stl(workdir / "base.stl", meshes.base_mesh(rc, r), "base")
-    if not ANALYTIC_VESSEL:
-        meshes.write_stl(workdir / "vessel.stl", meshes.vessel_mesh(rc, z_box - 0.5 * d, r), "vessel")
     meshes.write_stl(workdir / "head.stl", meshes.head_mesh(g.head_radius, g.hub_radius, g.blade_count,
                                                             g.blade_height, r), "head")
     mesh_ids = ["base"]
     if g.base_ribs > 0:
         meshes.write_stl(workdir / "ribs.stl", meshes.ribs_mesh(rc, g.base_ribs, g.rib_height, r), "ribs")
         mesh_ids.append("ribs")
-    mesh_ids += ["head"] if ANALYTIC_VESSEL else ["vessel", "head"]
+    mesh_ids.append("head")
 
     # ---------------------------------------------------------------- materials
     mu_b, mur_b = spec.effective_base_friction()
@@ -240,12 +231,12 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"fix base all mesh/surface file base.stl type {integer(T_BASE)}")
     if g.base_ribs > 0:
         add(f"fix ribs all mesh/surface file ribs.stl type {integer(T_BASE)}")
-    if not ANALYTIC_VESSEL:
-        add(f"fix vessel all mesh/surface file vessel.stl type {integer(T_WALL)}")
     add(f"fix head all mesh/surface/stress file head.stl type {integer(T_HEAD)} move 0.0 0.0 {num(z_park)}")
     add(f"fix walls all wall/gran {model} mesh n_meshes {integer(len(mesh_ids))} meshes {' '.join(mesh_ids)}")
-    if ANALYTIC_VESSEL:
-        add(f"fix vessel all wall/gran {model} primitive type {integer(T_WALL)} zcylinder {num(rc)} 0.0 0.0")
+    # the lateral wall is LIGGGHTS' exact analytic cylinder, as numba_dem's: a polygon mesh with a chord
+    # sag of 1 % of r (9 µm in ``quick``) is corrugated on the contacts' scale (Hertz overlap at 15 kPa
+    # ≈ 0.3 µm), which acts as friction on a wall meant to be frictionless
+    add(f"fix vessel all wall/gran {model} primitive type {integer(T_WALL)} zcylinder {num(rc)} 0.0 0.0")
     add("fix integr all nve/sphere")
     # -- measurements
     add("compute prad all property/atom radius")
