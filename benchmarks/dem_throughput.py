@@ -152,7 +152,7 @@ def yade_params(spec: ShearCellSpec, bed: DEMSystem, warmup: int, steps: int) ->
 
     return {"young": cp.young, "poisson": cp.poisson, "facet_young": cp.facet_young,
             "facet_poisson": cp.facet_poisson, "restitution": cp.restitution,
-            "shear_restitution": getattr(cp, "shear_restitution", cp.restitution), "krot": cp.krot, "eta": cp.eta,
+            "shear_restitution": cp.shear_restitution, "krot": cp.krot, "eta": cp.eta,
             "density": spec.material.density, "friction": spec.material.sliding_friction,
             "wall_friction": g.wall_friction, "base_friction": mu_b, "gravity": 9.81, "dt": spec.time_step,
             "vessel_facets": flat(vessel_mesh(rc, top, r_min)), "base_facets": flat(base_mesh(rc, r_min)),

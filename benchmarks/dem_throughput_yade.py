@@ -29,11 +29,15 @@ def write_json(name, data):
     os.replace(tmp, os.path.join(WD, name))
 
 
+# the yade backend's collision masks (scripts/ft4_shear.py): facets never meet facets
+SPHERE_MASK, FACET_MASK, NO_SELF_MASK = 1, 3, 2
+
+
 def add_facets(flat, material):
     for k in range(0, len(flat), 9):
         v = flat[k:k + 9]
         O.bodies.append(utils.facet([(v[0], v[1], v[2]), (v[3], v[4], v[5]), (v[6], v[7], v[8])],
-                                    material=material, fixed=True, wire=True))
+                                    material=material, fixed=True, wire=True, mask=FACET_MASK))
 
 
 try:
@@ -47,7 +51,7 @@ try:
     add_facets(P["base_facets"], mat_b)
     pos, vel, spin, radii = P["positions"], P["velocities"], P["spins"], P["radii"]
     for i, r in enumerate(radii):
-        b = utils.sphere((pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]), r, material=mat_p)
+        b = utils.sphere((pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]), r, material=mat_p, mask=SPHERE_MASK)
         b.state.vel = Vector3(vel[3 * i], vel[3 * i + 1], vel[3 * i + 2])
         b.state.angVel = Vector3(spin[3 * i], spin[3 * i + 1], spin[3 * i + 2])
         O.bodies.append(b)
@@ -57,7 +61,7 @@ try:
                                             es=MatchMaker(matches=(), algo="val", val=P["shear_restitution"]),
                                             krot=P["krot"], ktwist=0.0, eta=P["eta"], frictAngle=frict)
     O.engines = [ForceResetter(),
-                 InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
+                 InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()], avoidSelfInteractionMask=NO_SELF_MASK),
                  InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()], [ip2],
                                  [Law2_ScGeom_MindlinPhys_Mindlin(includeMoment=True)]),
                  NewtonIntegrator(gravity=(0, 0, -P["gravity"]), damping=0.0)]
