@@ -50,6 +50,59 @@ def test_rolling_torque_saturates_at_mur_r_fn() -> None:
     assert r["peak_torque"] <= r["expected"] * 1.02
 
 
+# ---------------------------------------------------------------- the contact law's definitions
+# LIGGGHTS 3.8's (rolling_model_epsd2.h, tangential_model_history.h), checked on the kernel itself:
+# the micro cases above only see the limits μs|F_n| and μr R*|F_n|, not the stiffnesses and the
+# dashpot rule below them.
+def _one_contact_step(shear=(0.0, 0.0, 0.0), vt=(0.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0), mu=0.5, mur=0.5):
+    """One step of a particle–wall contact with normal +z at overlap 1e-7 m (R = 0.9 mm,
+    E = 25 GPa, ν = 0.25, e = 0.3): returns (force, rolling torque, updated spring, k_t, γ_t, F_n, R)."""
+    import math
+
+    import numpy as np
+    from calibrax_numba_dem.contact import beta_from_restitution, contact, effective_moduli
+
+    radius, delta, dt = 0.9e-3, 1e-7, 1e-7
+    mass = 4.0 / 3.0 * math.pi * radius**3 * 3000.0
+    e_star, g_star = effective_moduli(25e9, 0.25)
+    beta = beta_from_restitution(0.3)
+    hist = np.array([shear], dtype=float)
+    rhist = np.zeros((1, 3))
+    out = contact(0.0, 0.0, 1.0, delta, radius, mass, vt[0], vt[1], vt[2], 0.0, 0.0, 0.0, spin[0], spin[1],
+                  spin[2], e_star, g_star, beta, mu, mur, 0.0, dt, hist, rhist, 0)
+    sq = math.sqrt(radius * delta)
+    kt = 8.0 * g_star * sq
+    gt = -2.0 * math.sqrt(5.0 / 6.0) * beta * math.sqrt(2.0 * e_star * sq * mass) * math.sqrt(4.0 * g_star / e_star)
+    return np.array(out[:3]), np.array(out[6:9]), hist[0].copy(), kt, gt, out[9], radius, dt
+
+
+def test_rolling_stiffness_is_epsd2_kt_r_squared() -> None:
+    """EPSD2: the rolling torque grows by k_r ω Δt per step with k_r = k_t R*² (not EPSD's 2.25 k_n μr² R*²)."""
+    _, torque, _, kt, _, _, radius, dt = _one_contact_step(spin=(3.0, 0.0, 0.0))
+    assert torque[0] == pytest.approx(-kt * radius**2 * 3.0 * dt, rel=1e-12)
+    assert torque[1] == 0.0 and torque[2] == 0.0
+
+
+def test_sticking_contact_adds_dashpot_past_the_coulomb_limit() -> None:
+    """LIGGGHTS slides a contact only when the *spring* exceeds μs|F_n|; while it sticks the dashpot adds on top."""
+    _, _, _, kt, gt, fn, _, dt = _one_contact_step()
+    s0 = 0.9 * 0.5 * fn / kt  # spring force 90 % of the limit
+    v = 0.02  # m/s: a dashpot force far above the limit's remaining 10 %
+    force, _, spring, kt, gt, fn, _, dt = _one_contact_step(shear=(s0, 0.0, 0.0), vt=(v, 0.0, 0.0))
+    s1 = s0 + v * dt
+    assert kt * s1 < 0.5 * fn
+    assert force[0] == pytest.approx(-kt * s1 - gt * v, rel=1e-12)
+    assert abs(force[0]) > 0.5 * fn
+    assert spring[0] == pytest.approx(s1, rel=1e-12)
+
+
+def test_sliding_contact_is_cut_to_the_coulomb_limit_without_dashpot() -> None:
+    _, _, _, kt, _, fn, _, _ = _one_contact_step()
+    force, _, spring, kt, _, fn, _, _ = _one_contact_step(shear=(2.0 * 0.5 * fn / kt, 0.0, 0.0), vt=(0.5, 0.0, 0.0))
+    assert force[0] == pytest.approx(-0.5 * fn, rel=1e-12)
+    assert spring[0] == pytest.approx(0.5 * fn / kt, rel=1e-12)
+
+
 def test_resting_bed_weight_on_frictionless_base() -> None:
     r = V.resting_bed_base_load(n_particles=150)
     assert r["base_force"] == pytest.approx(r["weight"], rel=0.01)

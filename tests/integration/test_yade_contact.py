@@ -85,4 +85,11 @@ def test_rolling_parameters_follow_epsd2():
     spec = ShearCellSpec.preset("tiny")
     cp = contact_params(spec)
     assert cp.eta == pytest.approx(spec.material.rolling_friction / 2)
-    assert cp.krot > 0 and math.isfinite(cp.krot)
+    # EPSD2 as LIGGGHTS 3.8 defines it: k_r = k_t R*², k_t = 8 G* √(R* δ), at the Hertz overlap of a
+    # pair (R* = r/2) carrying σ_pre (2r)²: F = 4/3 E* √R* δ^{3/2}
+    m, r = spec.material, spec.radius
+    e_star = m.youngs_modulus / (2 * (1 - m.poisson_ratio**2))
+    g_star = m.youngs_modulus / (4 * (2 - m.poisson_ratio) * (1 + m.poisson_ratio))
+    force = spec.procedure.preshear_stress * (2 * r) ** 2
+    delta = (force / (4 / 3 * e_star * math.sqrt(r / 2))) ** (2 / 3)
+    assert cp.krot == pytest.approx(8 * g_star * math.sqrt(r / 2 * delta) * (r / 2) ** 2, rel=1e-12)

@@ -37,7 +37,13 @@ def effective_moduli(youngs_modulus: float, poisson_ratio: float) -> tuple[float
 
 @njit(cache=True, inline="always")
 def tangential_spring(nx, ny, nz, vtx, vty, vtz, sx, sy, sz, kt, gt, flim, dt):
-    """Mindlin spring with history and Coulomb limit.
+    """Mindlin spring with history and Coulomb limit, as LIGGGHTS 3.8's ``tangential history``
+    (``tangential_model_history.h``) computes it:
+
+    1. the spring grows by v_t Δt and is projected onto the tangent plane (no rescaling);
+    2. if the *spring* force k_t|s| exceeds μs|F_n| the contact slides: the force is the spring's,
+       scaled to μs|F_n|, the spring is cut back to match, and there is no dashpot;
+    3. otherwise it sticks: F_t = −k_t s − γ_t v_t (the dashpot may carry it past μs|F_n|).
 
     Args:
         n*: unit normal. vt*: tangential relative velocity at the contact point, m/s.
@@ -45,36 +51,31 @@ def tangential_spring(nx, ny, nz, vtx, vty, vtz, sx, sy, sz, kt, gt, flim, dt):
             (negative, LIGGGHTS' sign). flim: μs|F_n|, N. dt: s.
 
     Returns:
-        (Ftx, Fty, Ftz, sx, sy, sz): tangential force on i (N) and the updated spring (m), kept in
-        the tangent plane with its length preserved, and shortened to the Coulomb limit on sliding.
+        (Ftx, Fty, Ftz, sx, sy, sz): tangential force on i (N) and the updated spring (m).
     """
     sx += vtx * dt
     sy += vty * dt
     sz += vtz * dt
-    old2 = sx * sx + sy * sy + sz * sz
     sdn = sx * nx + sy * ny + sz * nz
     sx -= sdn * nx
     sy -= sdn * ny
     sz -= sdn * nz
-    new2 = sx * sx + sy * sy + sz * sz
-    if new2 > 0.0 and sdn != 0.0:
-        sc = math.sqrt(old2 / new2)
-        sx *= sc
-        sy *= sc
-        sz *= sc
-    ftx = -(kt * sx + gt * vtx)
-    fty = -(kt * sy + gt * vty)
-    ftz = -(kt * sz + gt * vtz)
+    ftx = -kt * sx
+    fty = -kt * sy
+    ftz = -kt * sz
     ft2 = ftx * ftx + fty * fty + ftz * ftz
     if ft2 > flim * flim:
         ratio = flim / math.sqrt(ft2)
         ftx *= ratio
         fty *= ratio
         ftz *= ratio
-        if kt > 0.0:
-            sx = -(ftx + gt * vtx) / kt
-            sy = -(fty + gt * vty) / kt
-            sz = -(ftz + gt * vtz) / kt
+        sx *= ratio
+        sy *= ratio
+        sz *= ratio
+    else:
+        ftx -= gt * vtx
+        fty -= gt * vty
+        ftz -= gt * vtz
     return ftx, fty, ftz, sx, sy, sz
 
 
@@ -84,7 +85,7 @@ def rolling_spring(nx, ny, nz, wrx, wry, wrz, mx, my, mz, kr, mlim, dt):
 
     Args:
         n*: unit normal. wr*: ω_i − ω_other, rad/s. m*: the torque of the previous step, N·m.
-        kr: N·m/rad. mlim: μr R*|F_n|, N·m. dt: s.
+        kr: N·m/rad (EPSD2: k_t R*², see :func:`contact`). mlim: μr R*|F_n|, N·m. dt: s.
 
     Returns:
         (Mx, My, Mz): the rolling torque on i, N·m (also the new history).
@@ -164,7 +165,9 @@ def contact(nx, ny, nz, delta, reff, meff,
     my = 0.0
     mz = 0.0
     if mur > 0.0:
-        kr = 2.25 * kn * mur * mur * reff * reff
+        # EPSD2's rolling stiffness is k_t R*² (LIGGGHTS 3.8, rolling_model_epsd2.h), not the
+        # original EPSD's 2.25 k_n μr² R*² (Ai et al. 2011), which is 2.3× softer at μr = 0.5, ν = 0.25
+        kr = 8.0 * g_star * sq * reff * reff
         mx, my, mz = rolling_spring(nx, ny, nz, wrx, wry, wrz, rhist[p, 0], rhist[p, 1], rhist[p, 2],
                                     kr, mur * reff * abs(fn), dt)
         rhist[p, 0] = mx

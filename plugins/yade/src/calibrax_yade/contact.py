@@ -19,7 +19,8 @@ What YADE computes (pkg/dem/HertzMindlin.cpp), for materials a, b and a contact 
 
 LIGGGHTS (and numba_dem): E* = E/(2(1−ν²)), G* = E/(4(2−ν)(1+ν)), k_n = 4/3 E* √(R*δ),
 k_t = 8 G* √(R*δ), γ_{n,t} = −2√(5/6) β √(S_{n,t} m*), S_n = 2E*√(R*δ), S_t = k_t,
-β = ln e/√(ln²e + π²); EPSD2: k_r = 2.25 k_n μr² R*², |M_r| ≤ μr R* |F_n|; walls: R* = r, m* = m.
+β = ln e/√(ln²e + π²); EPSD2: k_r = k_t R*² (LIGGGHTS 3.8's rolling_model_epsd2.h; the original
+EPSD's 2.25 k_n μr² R*² is 2.3× softer at μr = 0.5), |M_r| ≤ μr R* |F_n|; walls: R* = r, m* = m.
 
 Particle–particle (Da, Db = r_i, r_j): with the particles' own E and ν, k_no, k_so and c_n are
 exactly LIGGGHTS' (E_y = E*, G_y = G*).
@@ -117,14 +118,14 @@ class YadeContactParams:
 def contact_params(spec: ShearCellSpec) -> YadeContactParams:
     """The YADE contact parameters of ``spec`` (see the module docstring for the mapping)."""
     m = spec.material
-    e_star, _ = effective_moduli(m.youngs_modulus, m.poisson_ratio)
+    e_star, g_star = effective_moduli(m.youngs_modulus, m.poisson_ratio)
     ew, nuw = facet_material(m.youngs_modulus, m.poisson_ratio)
     r = spec.radius
     reff = r / 2.0
     f_ref = spec.procedure.preshear_stress * (2.0 * r) ** 2
     delta = hertz_overlap(f_ref, e_star, reff)
-    kn = 4.0 / 3.0 * e_star * math.sqrt(reff * delta)
-    krot = 2.25 * kn * m.rolling_friction**2 * reff**2
+    kt = 8.0 * g_star * math.sqrt(reff * delta)
+    krot = kt * reff**2
     return YadeContactParams(young=m.youngs_modulus, poisson=m.poisson_ratio, facet_young=ew, facet_poisson=nuw,
                              restitution=m.restitution, shear_restitution=SHEAR_RESTITUTION, krot=krot,
                              eta=0.5 * m.rolling_friction, e_star=e_star)
