@@ -87,6 +87,16 @@ def test_shear_test_time_series_follow_the_conventions(shear_run):
     assert np.all((result.bulk_density > 1000) & (result.bulk_density < spec.material.density))
 
 
+def test_head_turns_back_to_unload_the_torque_before_every_settle(shear_run):
+    """As numba_dem and YADE: after each of the 7 rotations that a settle follows, the head turns
+    back until its torque has relaxed, at most 0.05 rad (plus one sample interval)."""
+    spec, result, _ = shear_run
+    extra = result.provenance.extra
+    assert extra["unload_count"] == 7
+    one_sample = spec.procedure.rotation_rate * spec.numerics.sample_interval
+    assert one_sample * 0.99 <= extra["unload_rotation_max"] <= 0.05 + 1.01 * one_sample
+
+
 def test_written_meshes_pass_the_stl_checker(shear_run):
     _, _, workdir = shear_run
     files = sorted(Path(workdir).glob("*.stl"))

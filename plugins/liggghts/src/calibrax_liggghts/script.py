@@ -17,7 +17,8 @@ Conventions, identical to the numba_dem backend (``plugins/numba_dem``):
 * the head's blade tips are placed half a particle diameter above the bed's highest particle,
   then a stress servo takes the head in at ≤ 0.2 m/s and consolidates the bed at the preshear σ;
   for each shear σ: (settle at the preshear σ, except the first), preshear rotation, bulk density,
-  settle at the shear σ for ``settle_time``, shear rotation.
+  settle at the shear σ for ``settle_time``, shear rotation. Every settle after a rotation first
+  turns the head back until its torque has relaxed (at most 0.05 rad), as numba_dem and YADE do.
 
 Atom types: 1 base (and ribs), 2 lateral wall, 3 head, 4 particles while pouring, 5 particles.
 """
@@ -62,6 +63,10 @@ APPROACH_LOAD = 0.3
 #: seed 0; per-step gain λ·Δt ≈ 0.02, far from the explicit update's limit)
 SERVO_BANDWIDTH = 20000.0
 SERVO_INTEGRAL = 0.5
+
+#: after each rotation the head turns back until the torque has relaxed, at most this far, rad
+#: (numba_dem's and YADE's ``unload_torque``)
+UNLOAD_MAX_ROTATION = 0.05
 
 T_BASE, T_WALL, T_HEAD, T_POUR, T_PART = 1, 2, 3, 4, 5
 NTYPES = 5
@@ -329,7 +334,29 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
 
     steps: list[tuple[str, float, int, str]] = []
 
+    def unload_torque() -> None:
+        # numba_dem's ``unload_torque`` (and YADE's): turn back at the rotation rate, under the σ of
+        # the step just run, until the torque averaged over a sample interval is ≤ 0, at most
+        # UNLOAD_MAX_ROTATION; every run is a whole number of sample intervals, so f_tun is current
+        j = len(steps)
+        n_loops = max(1, int(math.ceil(UNLOAD_MAX_ROTATION / (p.rotation_rate * per * dt))))
+        add(f"variable omega equal {num(-p.rotation_rate, 'procedure.rotation_rate')}")
+        add(f"fix tun all ave/time 1 {integer(per)} {integer(per)} v_tres")
+        add("variable tun equal f_tun")
+        add(f'print "CALIBRAX unload {integer(j)} ${{stp}}"')
+        add(f"variable iun{integer(j)} loop {integer(n_loops)}")
+        add(f"label unload{integer(j)}")
+        add(f"run {integer(per)}")
+        add(f'if "${{tun}} <= 0.0" then "jump SELF unloaded{integer(j)}"')
+        add(f"next iun{integer(j)}")
+        add(f"jump SELF unload{integer(j)}")
+        add(f"label unloaded{integer(j)}")
+        add("unfix tun")
+        add(f'print "CALIBRAX unloaded {integer(j)} ${{stp}}"')
+
     def settle(stress: float) -> None:
+        if steps:
+            unload_torque()
         add("variable omega equal 0.0")
         add(f"variable ftgt equal {num(stress * area, 'procedure stress')}")
         if p.settle_time > 0:

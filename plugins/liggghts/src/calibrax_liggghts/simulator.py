@@ -145,6 +145,13 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
             info["consolidation_settled"] = float(m[4]) if len(m) > 4 else math.nan
         elif m[0] == "done":
             info["total_steps"] = float(m[1])
+    # the head's turn back before each settle (script.unload_torque), rad
+    unload_start = {int(m[1]): int(m[2]) for m in marks if m[0] == "unload"}
+    turned = [spec.procedure.rotation_rate * (int(m[2]) - unload_start[int(m[1])]) * plan.dt
+              for m in marks if m[0] == "unloaded" and int(m[1]) in unload_start]
+    if turned:
+        info["unload_rotation_max"] = float(max(turned))
+        info["unload_count"] = float(len(turned))
     if "total_steps" not in info:
         raise SimulationFailed("LIGGGHTS stopped before the end of the procedure", tail, kind="crash")
     radius = spec.geometry.head_radius
