@@ -15,7 +15,8 @@ Conventions, identical to the numba_dem backend (``plugins/numba_dem``):
   velocities for the same seed), poured under 3 g with friction 0.1 and no rolling friction,
   until the fastest particle is below 0.02 m/s, then the material's friction and 1 g for 3 ms.
 * the head's blade tips are placed half a particle diameter above the bed's highest particle,
-  then a stress servo takes the head in at ≤ 0.2 m/s and consolidates the bed at the preshear σ;
+  then a stress servo takes the head in at ≤ 0.2 m/s and consolidates the bed at the preshear σ,
+  turning at the rotation rate, for at least one preshear rotation (numba_dem's rule);
   for each shear σ: (settle at the preshear σ, except the first), preshear rotation, bulk density,
   settle at the shear σ for ``settle_time``, shear rotation. Every settle after a rotation first
   turns the head back until its torque has relaxed (at most 0.05 rad), as numba_dem and YADE do.
@@ -299,6 +300,9 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add('if "${nplace} > 0" then "run ${nplace}"')
     add("variable vz equal 0.0")
     add('print "CALIBRAX placed ${stp} ${zh} ${ztop}"')
+    # the head turns while it descends and consolidates, so that the blades cut into the bed (as the
+    # FT4 does, and numba_dem and YADE)
+    add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
     add(f"variable ftgt equal {num(f_pre)}")
     add("variable err equal v_fup-v_ftgt")
     clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
@@ -314,6 +318,9 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # for that), the head's travel over the chunk
     add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
     n_cons = int(math.ceil(0.3 / 3.0e-3))
+    # numba_dem's rule: at least one preshear rotation of turning (and 10 ms), then until the head
+    # stops sinking with σ on target
+    min_chunks = max(4, int(math.ceil(max(0.01, p.preshear_rotation / p.rotation_rate) / 3.0e-3)) + 1)
     add("variable zprev equal ${zh}")
     add("variable consok equal 0")
     add(f"variable icons loop {integer(n_cons)}")
@@ -321,13 +328,14 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"run {chunk(3.0e-3)}")
     add("variable dz equal abs(v_zh-v_zprev)")
     add(f"variable serr equal abs(f_cons/{num(f_pre)}-1.0)")
-    add(f'if "${{icons}} > 3 && ${{dz}} < {num(0.005 * d)} && ${{serr}} < 0.05" '
+    add(f'if "${{icons}} >= {integer(min_chunks)} && ${{dz}} < {num(0.005 * d)} && ${{serr}} < 0.05" '
         'then "variable consok equal 1" "jump SELF consdone"')
     add("variable zprev equal ${zh}")
     add("next icons")
     add("jump SELF cons")
     add("label consdone")
     add('print "CALIBRAX consolidated ${stp} ${zh} ${serr} ${consok}"')
+    add("variable omega equal 0.0")
     add("unfix cons")
     add(f"variable vz equal {clamp}")
     add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")

@@ -28,8 +28,12 @@ from .servo import servo_gains
 
 #: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's)
 POUR_FRICTION = 0.1
-#: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after)
-POUR_GRAVITY = 5.0
+#: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after).
+#: The pour is the same on every backend (LIGGGHTS' and YADE's POUR_GRAVITY, POUR_SPEED): the bulk
+#: density after preshear still remembers it
+POUR_GRAVITY = 3.0
+#: the pour ends when the fastest particle is slower than this, m/s
+POUR_SPEED = 0.02
 #: servo speed limit during the approach and consolidation, m/s
 APPROACH_SPEED = 0.2
 #: servo speed limit while settling and shearing, m/s: high enough never to act, because a limit
@@ -139,7 +143,7 @@ class ShearTestDriver:
         t_spent = 1.5 * t_fall
         while t_spent < t_max:
             vmax = float(np.sqrt(np.max(np.sum(s.v**2, axis=1))))
-            if vmax < 0.05:
+            if vmax < POUR_SPEED:
                 break
             self._run(2.0e-3, "pour")
             t_spent += 2.0e-3
