@@ -97,6 +97,32 @@ def test_head_turns_back_to_unload_the_torque_before_every_settle(shear_run):
     assert one_sample * 0.99 <= extra["unload_rotation_max"] <= 0.05 + 1.01 * one_sample
 
 
+def test_consolidation_turns_for_at_least_one_preshear_rotation(shear_run):
+    """numba_dem's and YADE's rule: the head turns while it consolidates the bed, for at least one
+    preshear rotation (and 10 ms), before the first preshear is recorded."""
+    spec, result, _ = shear_run
+    p = spec.procedure
+    assert result.provenance.extra["consolidation_time"] >= max(0.01, p.preshear_rotation / p.rotation_rate)
+    assert f"variable omega equal {num(p.rotation_rate)}" in _script_between(shear_run, "CALIBRAX placed", "label cons")
+
+
+def _script_between(shear_run, start: str, end: str) -> str:
+    text = (shear_run[2] / "in.calibrax").read_text()
+    return text[text.index(start):text.index(end)]
+
+
+def test_servo_holds_a_bed_without_rolling_resistance(tmp_path):
+    """μr = 0: the blades' friction reverses with the head's vertical motion. The former kinematic PI
+    servo read a force that depended on the direction it moved the head, chattered, wound up its
+    integral and lifted the head off this bed in the first preshear ("the head lost the bed"); the
+    dynamic head (numba_dem's) holds σ in every step."""
+    spec = short_tiny_spec(material={"rolling_friction": 0.0})
+    result = LiggghtsSimulator().simulate(spec, tmp_path)
+    for s in result.steps:
+        assert np.mean(s.normal_stress) == pytest.approx(s.target_stress, rel=0.15), s.kind
+    assert np.all(result.peak_shear_stress > 0.1 * np.asarray(spec.procedure.shear_stresses))
+
+
 def test_written_meshes_pass_the_stl_checker(shear_run):
     _, _, workdir = shear_run
     files = sorted(Path(workdir).glob("*.stl"))

@@ -48,22 +48,22 @@ POUR_FRICTION = 0.1
 POUR_GRAVITY = 3.0
 #: the pour ends when the fastest particle is slower than this, m/s
 POUR_SPEED = 0.02
-#: servo speed limit during approach and consolidation / during shear, m/s (as numba_dem)
+#: the head comes down at this speed until it carries the target load, m/s (as numba_dem)
 APPROACH_SPEED = 0.2
-SHEAR_SPEED_LIMIT = 0.05
+#: the dynamic head's speed limit from then on, m/s: high enough never to act (numba_dem's
+#: SHEAR_SPEED_LIMIT: a limit that clips the head's response to contact spikes rectifies them)
+SHEAR_SPEED_LIMIT = 1.0
 #: blade tips this many particle diameters above the bed before the servo takes over
 APPROACH_CLEARANCE = 0.5
 #: speed of the blind move of the head from its parking height to the approach height, m/s
 PLACE_SPEED = 0.5
-#: the approach moves at APPROACH_SPEED until the head carries this fraction of the target load
-APPROACH_LOAD = 0.3
-#: servo bandwidth, 1/s, and integral corner as a fraction of it. The bed's real stiffness under a
-#: turning head is far below the Hertz-column estimate, so the closed loop is much slower than this
-#: nominal rate: at 5000/s σ swung with an s.d. of 8 % of its target in the quick cell's shear
-#: windows (numba_dem: 2 %) and the τ peaks rode on the swings; at 20 000/s, 1.5 % (quick, Table 1,
-#: seed 0; per-step gain λ·Δt ≈ 0.02, far from the explicit update's limit)
-SERVO_BANDWIDTH = 20000.0
-SERVO_INTEGRAL = 0.5
+#: the servo's head mass as a fraction of the bed's, and τ_ref in head–bed periods (numba_dem's
+#: HEAD_MASS_FRACTION and TAU_REF_PERIODS). It replaced a kinematic PI servo (v = K_p e + K_i ∫e):
+#: the blades' friction reverses with the head's motion, so the force that servo read depended on
+#: the direction it moved the head; it chattered, its integral wound up and, at μr ≤ 0.1 on the
+#: quick cell, lifted the head off the bed in the first preshear
+HEAD_MASS_FRACTION = 0.25
+TAU_REF_PERIODS = 1.0
 
 #: after each rotation the head turns back until the torque has relaxed, at most this far, rad
 #: (numba_dem's and YADE's ``unload_torque``)
@@ -90,14 +90,13 @@ def integer(value: object, key: str = "value") -> str:
     return str(int(value))
 
 
-def servo_gains(spec: ShearCellSpec, bed_height: float) -> tuple[float, float, float]:
-    """(k_bed in N/m, K_p in m/(s·N), K_i in m/(s²·N)) of the head's PI stress servo.
+def servo_gains(spec: ShearCellSpec, bed_height: float, bed_mass: float) -> tuple[float, float, float, float]:
+    """(k_bed in N/m, head mass M in kg, damping c in N·s/m, τ_ref in s) of the dynamic head.
 
-    The head's vertical velocity is v = K_p (F − F*) + K_i ∫(F − F*) dt (positive up), clamped to
-    the phase's speed limit. k_bed is the bed's vertical stiffness estimated as numba_dem's
-    ``servo_gains`` does (columns of Hertz contacts at the preshear σ); K_p = λ / k_bed gives a
-    closed-loop rate λ = ``SERVO_BANDWIDTH``; the integral removes the steady error of a bed that
-    dilates or compacts under shear (the failure of a proportional servo, DESIGN §3).
+    As numba_dem's ``servo_gains``: the bed's vertical stiffness k_bed is estimated as columns of
+    Hertz contacts at the preshear σ (a contact carrying σ (2R)² has tangent stiffness
+    2E*√(R*δ), R* = R/2; A/(2R)² columns of H/(2R) contacts in series); M is HEAD_MASS_FRACTION of
+    the bed's mass ``bed_mass`` (kg), c critical on k_bed, τ_ref TAU_REF_PERIODS head–bed periods.
     """
     m = spec.material
     r = spec.radius
@@ -108,9 +107,10 @@ def servo_gains(spec: ShearCellSpec, bed_height: float) -> tuple[float, float, f
     delta = (f / (4.0 / 3.0 * e_star * math.sqrt(reff))) ** (2.0 / 3.0)
     k_c = 2.0 * e_star * math.sqrt(reff * delta)
     k_bed = k_c * area / (2.0 * r * bed_height)
-    kp = SERVO_BANDWIDTH / k_bed
-    ki = SERVO_INTEGRAL * SERVO_BANDWIDTH * kp
-    return k_bed, kp, ki
+    mass = HEAD_MASS_FRACTION * bed_mass
+    damp = 2.0 * math.sqrt(k_bed * mass)
+    tau_ref = TAU_REF_PERIODS * 2.0 * math.pi * math.sqrt(mass / k_bed)
+    return k_bed, mass, damp, tau_ref
 
 
 @dataclass(frozen=True)
@@ -204,7 +204,8 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     e = num(m.restitution, "material.restitution")
 
     # ---------------------------------------------------------------- servo
-    k_bed, kp, ki = servo_gains(spec, g.fill_height)
+    bed_mass = float(np.sum(4.0 / 3.0 * math.pi * radii**3) * m.density)
+    k_bed, head_mass, head_damp, tau_ref = servo_gains(spec, g.fill_height, bed_mass)
     f_pre = p.preshear_stress * area
 
     def chunk(duration: float) -> str:
@@ -213,7 +214,8 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     s: list[str] = []
     add = s.append
     add("# calibrax FT4 shear test for LIGGGHTS 3.8 (generated; every number formatted by calibrax_liggghts)")
-    add(f"# spec {spec.spec_hash()}; servo: k_bed {num(k_bed)} N/m")
+    add(f"# spec {spec.spec_hash()}; servo: k_bed {num(k_bed)} N/m, head mass {num(head_mass)} kg, "
+        f"damping {num(head_damp)} N s/m, tau_ref {num(tau_ref)} s")
     for line in ("atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
                  "communicate single vel yes", "units si", "hard_particles yes"):
         add(line)
@@ -304,16 +306,45 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # FT4 does, and numba_dem and YADE)
     add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
     add(f"variable ftgt equal {num(f_pre)}")
-    add("variable err equal v_fup-v_ftgt")
-    clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
-    add(f"variable vlim equal {num(APPROACH_SPEED)}")
-    # the integral only runs while the head carries load, so the approach does not wind it up
-    add(f"variable erri equal v_err*(v_fup>={num(APPROACH_LOAD)}*v_ftgt)")
-    add("fix integ all ave/time 1 1 1 v_erri ave running")
+    # approach: straight down at APPROACH_SPEED until the head carries the target load (checked every
+    # eighth of a sample interval: ≤ 5 µm of travel at 0.2 m/s in quick), then the dynamic head takes
+    # over at that speed. (Started earlier, its closed form below would wind up: the unloaded head
+    # falls freely while the speed limit holds it back)
+    add(f"variable vz equal {num(-APPROACH_SPEED)}")
+    app_chunk = max(1, per // 8)
+    n_app = int(math.ceil(0.3 / (app_chunk * dt)))
+    add(f"variable iapp loop {integer(n_app)}")
+    add("label approach")
+    add(f"run {integer(app_chunk)}")
+    add('if "${fup} >= ${ftgt}" then "jump SELF approached"')
+    add("next iapp")
+    add("jump SELF approach")
+    add("label approached")
+    # the head as a rigid body of mass M under the target load, with a damper on v − v_ref (numba_dem's
+    # and YADE's servo, see servo_gains), integrated in closed form from the contact (t = 0, v = v0):
+    #   M (v − v0) = ∫(F − F*) dt − c (Δz − ∫v_ref dt),
+    # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
+    # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v
+    # for a steady drift (a window mean lags a ramp by W/2 steps); W Δt = 2 τ_ref
+    window = max(2, int(round(2.0 * tau_ref / dt)))
     add("variable s0 equal ${stp}")
-    add(f"variable vraw equal {num(kp)}*v_err+{num(ki * dt)}*f_integ*(step-v_s0)")
-    load = num(APPROACH_LOAD)
-    add(f"variable vz equal (v_fup<{load}*v_ftgt)*(-v_vlim)+(v_fup>={load}*v_ftgt)*({clamp})")
+    add("variable z0 equal ${zh}")
+    add("variable nst equal step-v_s0")
+    add("variable err equal v_fup-v_ftgt")
+    add("fix integ all ave/time 1 1 1 v_err ave running")
+    add("variable hdz equal v_zh-v_z0")
+    add(f"fix hzw all ave/time 1 1 1 v_hdz ave window {integer(window)}")
+    add(f"variable hvref equal (v_hdz-f_hzw)*{num(2.0 / (window * dt))}")
+    add("fix hyr all ave/time 1 1 1 v_hvref ave running")
+    clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
+    add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")
+    add(f"variable vraw equal {num(-APPROACH_SPEED)}+(f_integ*v_nst*{num(dt)}"
+        f"-{num(head_damp)}*(v_hdz-f_hyr*v_nst*{num(dt)}))/{num(head_mass)}")
+    add(f"variable vz equal {clamp}")
+    # back onto whole sample intervals (the approach ran in eighths): every later run is a whole
+    # number of them, so the recording fixes sample on the same steps as the parser expects
+    add(f"variable pad equal {integer(per)}-step%{integer(per)}")
+    add(f'if "${{pad}} < {integer(per)}" then "run ${{pad}}"')
     # σ averaged over each 3 ms chunk (numba_dem averages the last 1 ms; this tiny bed's σ is too noisy
     # for that), the head's travel over the chunk
     add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
@@ -337,8 +368,6 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add('print "CALIBRAX consolidated ${stp} ${zh} ${serr} ${consok}"')
     add("variable omega equal 0.0")
     add("unfix cons")
-    add(f"variable vz equal {clamp}")
-    add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")
 
     steps: list[tuple[str, float, int, str]] = []
 

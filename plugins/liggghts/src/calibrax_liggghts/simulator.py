@@ -139,7 +139,11 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
     for m in marks:
         if m[0] == "poured":
             info["bed_top_after_pour"] = float(m[2])
+        elif m[0] == "placed":
+            info["placed_step"] = float(m[1])
         elif m[0] == "consolidated":
+            if "placed_step" in info:  # the head turns from here until consolidated, s
+                info["consolidation_time"] = (float(m[1]) - info["placed_step"]) * plan.dt
             info["head_after_consolidation"] = float(m[2])
             info["consolidation_sigma_error"] = float(m[3])
             info["consolidation_settled"] = float(m[4]) if len(m) > 4 else math.nan
@@ -190,7 +194,7 @@ class LiggghtsSimulator:
     Hertz–Mindlin with tangential history and EPSD2 rolling friction (``pair_style gran model
     hertz tangential history rolling_friction epsd2``, plus ``cohesion sjkr`` when the material is
     cohesive); base, ribs, lateral wall and bladed head as STL meshes under ``fix wall/gran``; the
-    head's height is held by a PI stress servo written as LIGGGHTS variables driving
+    head's height is held by a dynamic stress servo (numba_dem's) written as LIGGGHTS variables driving
     ``fix move/mesh linear/variable``, its rotation by ``rotate/variable``. σ, τ, rotation, bed
     height and the fill follow numba_dem's conventions (see :mod:`calibrax_liggghts.script`).
 
