@@ -8,7 +8,11 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.calibrax-installed
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 TORCH := torch==2.13.0
-export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
+# Numba's cache is checked against each kernel's own file only, not the files it inlines from (a
+# change to contact.py leaves engine.py's cached kernels stale), so the cache is keyed by a hash of
+# all of numba_dem's sources
+NUMBA_SRC_HASH := $(shell cat plugins/numba_dem/src/calibrax_numba_dem/*.py | sha1sum | cut -c1-12)
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache/$(NUMBA_SRC_HASH)
 
 .PHONY: run test setup engines clean-runs
 
