@@ -32,12 +32,13 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.packing import initial_packing
+from calibrax.core.servo import servo_gains
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.errors import SpecError
 
 from . import mesh as meshes
 
-__all__ = ["num", "integer", "ScriptPlan", "write_inputs", "servo_gains", "SCRIPT_NAME", "DATA_NAME"]
+__all__ = ["num", "integer", "ScriptPlan", "write_inputs", "SCRIPT_NAME", "DATA_NAME"]
 
 SCRIPT_NAME = "in.calibrax"
 DATA_NAME = "particles.data"
@@ -57,14 +58,6 @@ SHEAR_SPEED_LIMIT = 1.0
 APPROACH_CLEARANCE = 0.5
 #: speed of the blind move of the head from its parking height to the approach height, m/s
 PLACE_SPEED = 0.5
-#: the servo's head mass as a fraction of the bed's, and τ_ref in head–bed periods (numba_dem's
-#: HEAD_MASS_FRACTION and TAU_REF_PERIODS). It replaced a kinematic PI servo (v = K_p e + K_i ∫e):
-#: the blades' friction reverses with the head's motion, so the force that servo read depended on
-#: the direction it moved the head; it chattered, its integral wound up and, at μr ≤ 0.1 on the
-#: quick cell, lifted the head off the bed in the first preshear
-HEAD_MASS_FRACTION = 0.25
-TAU_REF_PERIODS = 1.0
-
 #: after each rotation the head turns back until the torque has relaxed, at most this far, rad
 #: (numba_dem's and YADE's ``unload_torque``)
 UNLOAD_MAX_ROTATION = 0.05
@@ -88,29 +81,6 @@ def integer(value: object, key: str = "value") -> str:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise SpecError(key, f"must be an integer, got {value!r}")
     return str(int(value))
-
-
-def servo_gains(spec: ShearCellSpec, bed_height: float, bed_mass: float) -> tuple[float, float, float, float]:
-    """(k_bed in N/m, head mass M in kg, damping c in N·s/m, τ_ref in s) of the dynamic head.
-
-    As numba_dem's ``servo_gains``: the bed's vertical stiffness k_bed is estimated as columns of
-    Hertz contacts at the preshear σ (a contact carrying σ (2R)² has tangent stiffness
-    2E*√(R*δ), R* = R/2; A/(2R)² columns of H/(2R) contacts in series); M is HEAD_MASS_FRACTION of
-    the bed's mass ``bed_mass`` (kg), c critical on k_bed, τ_ref TAU_REF_PERIODS head–bed periods.
-    """
-    m = spec.material
-    r = spec.radius
-    e_star = m.youngs_modulus / (2.0 * (1.0 - m.poisson_ratio**2))
-    area = math.pi * spec.geometry.head_radius**2
-    f = spec.procedure.preshear_stress * (2.0 * r) ** 2
-    reff = r / 2.0
-    delta = (f / (4.0 / 3.0 * e_star * math.sqrt(reff))) ** (2.0 / 3.0)
-    k_c = 2.0 * e_star * math.sqrt(reff * delta)
-    k_bed = k_c * area / (2.0 * r * bed_height)
-    mass = HEAD_MASS_FRACTION * bed_mass
-    damp = 2.0 * math.sqrt(k_bed * mass)
-    tau_ref = TAU_REF_PERIODS * 2.0 * math.pi * math.sqrt(mass / k_bed)
-    return k_bed, mass, damp, tau_ref
 
 
 @dataclass(frozen=True)
@@ -204,8 +174,13 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     e = num(m.restitution, "material.restitution")
 
     # ---------------------------------------------------------------- servo
+    # numba_dem's dynamic head (``calibrax.core.servo``). It replaced a kinematic PI servo
+    # (v = K_p e + K_i ∫e): the blades' friction reverses with the head's motion, so the force that
+    # servo read depended on the direction it moved the head; it chattered, its integral wound up and,
+    # at μr ≤ 0.1 on the quick cell, lifted the head off the bed in the first preshear
     bed_mass = float(np.sum(4.0 / 3.0 * math.pi * radii**3) * m.density)
-    k_bed, head_mass, head_damp, tau_ref = servo_gains(spec, g.fill_height, bed_mass)
+    e_star = m.youngs_modulus / (2.0 * (1.0 - m.poisson_ratio**2))
+    head_mass, head_damp, tau_ref = servo_gains(p.preshear_stress, area, r, e_star, g.fill_height, bed_mass)
     f_pre = p.preshear_stress * area
 
     def chunk(duration: float) -> str:
@@ -214,8 +189,8 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     s: list[str] = []
     add = s.append
     add("# calibrax FT4 shear test for LIGGGHTS 3.8 (generated; every number formatted by calibrax_liggghts)")
-    add(f"# spec {spec.spec_hash()}; servo: k_bed {num(k_bed)} N/m, head mass {num(head_mass)} kg, "
-        f"damping {num(head_damp)} N s/m, tau_ref {num(tau_ref)} s")
+    add(f"# spec {spec.spec_hash()}; servo: head mass {num(head_mass)} kg, damping {num(head_damp)} N s/m, "
+        f"tau_ref {num(tau_ref)} s")
     for line in ("atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
                  "communicate single vel yes", "units si", "hard_particles yes"):
         add(line)
@@ -321,7 +296,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add("jump SELF approach")
     add("label approached")
     # the head as a rigid body of mass M under the target load, with a damper on v − v_ref (numba_dem's
-    # and YADE's servo, see servo_gains), integrated in closed form from the contact (t = 0, v = v0):
+    # and YADE's servo, calibrax.core.servo), integrated in closed form from the contact (t = 0, v = v0):
     #   M (v − v0) = ∫(F − F*) dt − c (Δz − ∫v_ref dt),
     # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
     # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v

@@ -136,14 +136,15 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
                                    kind="unstable")
     bulk = {int(m[1]): float(m[2]) for m in marks if m[0] == "bulk"}
     info: dict[str, float] = {}
+    placed_step: float | None = None
     for m in marks:
         if m[0] == "poured":
             info["bed_top_after_pour"] = float(m[2])
         elif m[0] == "placed":
-            info["placed_step"] = float(m[1])
+            placed_step = float(m[1])
         elif m[0] == "consolidated":
-            if "placed_step" in info:  # the head turns from here until consolidated, s
-                info["consolidation_time"] = (float(m[1]) - info["placed_step"]) * plan.dt
+            if placed_step is not None:  # the head turns from here until consolidated, s
+                info["consolidation_time"] = (float(m[1]) - placed_step) * plan.dt
             info["head_after_consolidation"] = float(m[2])
             info["consolidation_sigma_error"] = float(m[3])
             info["consolidation_settled"] = float(m[4]) if len(m) > 4 else math.nan

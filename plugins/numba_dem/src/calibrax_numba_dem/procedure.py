@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from calibrax.core.packing import initial_packing
+from calibrax.core.servo import servo_gains
 from calibrax.core.sheartest import ShearCellSpec, StepRecord, shear_stress_from_torque
 from calibrax.errors import SimulationFailed
 
@@ -24,7 +25,6 @@ from .engine import DEMSystem, make_params
 from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX,
                      H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_WALL, P_MUR, P_MUR_BASE,
                      P_MUR_WALL, P_USE_HEAD)
-from .servo import servo_gains
 
 #: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's)
 POUR_FRICTION = 0.1

@@ -22,11 +22,10 @@ c = 2√(k M) and τ_ref = q · 2π√(M/k), c τ_ref = 4πq M, so the bias is (
 gains therefore use a light head (a quarter of the bed's mass) and q = 1 period (was: the bed's
 mass and five periods, 19 times the bias; preshear windows of ``quick`` ran 6–9 % above target).
 The damper still acts on the head–bed resonance (its high-pass passes 99 % at the resonance).
+The gains are computed by :func:`calibrax.core.servo.servo_gains`, shared with LIGGGHTS.
 """
 
 from __future__ import annotations
-
-import math
 
 from numba import njit
 
@@ -58,31 +57,3 @@ def head_kick(head, f_up, dt):
         v = -vmax
     head[H_VZ] = v
     head[H_VREF] += (v - head[H_VREF]) * min(1.0, dt / head[H_TAU_REF])
-
-
-#: the servo's head mass as a fraction of the bed's mass
-HEAD_MASS_FRACTION = 0.25
-#: τ_ref in head–bed periods
-TAU_REF_PERIODS = 1.0
-
-
-def servo_gains(stress: float, area: float, radius: float, e_star: float, bed_height: float,
-                bed_mass: float, damping_ratio: float = 1.0, mass_fraction: float = HEAD_MASS_FRACTION,
-                tau_periods: float = TAU_REF_PERIODS) -> tuple[float, float, float]:
-    """Servo mass (kg), damping (N·s/m) and v_ref time constant (s) for a bed under ``stress``.
-
-    The bed's vertical stiffness is estimated as columns of Hertz contacts: a contact carrying
-    f = σ (2R)² has tangent stiffness k_c = 2E*√(R* δ) (R* = R/2), and A/(2R)² columns of
-    H/(2R) contacts in series give k_bed = k_c A / (2R H). The head's mass is ``mass_fraction``
-    of the bed's mass (kg), its damping ``damping_ratio`` of critical on k_bed, τ_ref
-    ``tau_periods`` head–bed periods (see the module docstring for why both are small).
-    """
-    f = stress * (2.0 * radius) ** 2
-    reff = radius / 2.0
-    delta = (f / (4.0 / 3.0 * e_star * math.sqrt(reff))) ** (2.0 / 3.0)
-    k_c = 2.0 * e_star * math.sqrt(reff * delta)
-    k_bed = k_c * area / (2.0 * radius * bed_height)
-    mass = mass_fraction * bed_mass
-    damp = 2.0 * damping_ratio * math.sqrt(k_bed * mass)
-    period = 2.0 * math.pi * math.sqrt(mass / k_bed)
-    return mass, damp, tau_periods * period
