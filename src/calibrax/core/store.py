@@ -158,7 +158,10 @@ class CampaignStore:
         if not self.path.exists():
             raise StoreError(f"store {self.path} does not exist")
         try:
-            return h5py.File(self.path, "r")
+            # no HDF5 file locking: the store has its own protocol (one writer under the .lock file,
+            # each write a new file renamed over the old), and HDF5's lock let a reader (the test's
+            # poll, `calibrax status` during a run) make the campaign's own read fail with errno 11
+            return h5py.File(self.path, "r", locking=False)
         except OSError as exc:
             raise StoreError(f"store {self.path} cannot be opened as HDF5: {exc}") from exc
 
