@@ -69,3 +69,53 @@ def test_find_peak_is_the_max_of_a_running_mean():
 
 def test_shear_stress_from_torque():
     assert shear_stress_from_torque(2.0, 0.5) == pytest.approx(3 * 2.0 / (2 * np.pi * 0.125))
+
+
+def _shear_result_at(spec, friction: float):
+    """One preshear and one shear step at 9 kPa whose τ is ``friction`` · σ throughout (hand-made
+    records, the real result type)."""
+    from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+
+    rot = np.linspace(0.0, 0.12, 100)
+    full = lambda v: np.full(rot.size, v)  # noqa: E731
+    pre = StepRecord("preshear", 15000.0, rot / 5.0, rot, full(7000.0), full(15000.0), full(0.02))
+    shear = StepRecord("shear", 9000.0, rot / 5.0, rot, full(friction * 9000.0), full(9000.0), full(0.02))
+    return ShearTestResult.from_steps(spec, [pre, shear], [1500.0], Provenance("hand", "-", "-", 0, 1.0, 100))
+
+
+def test_base_capacity_is_the_flat_bases_coulomb_limit_under_uniform_pressure():
+    from calibrax.core.sheartest import base_shear_capacity
+
+    spec = ShearCellSpec.preset("quick")
+    g = spec.geometry
+    k = g.vessel_diameter / 2 / g.head_radius
+    # μ_b [σ R_v/R_h + ρ g H (R_v/R_h)³] with μ_b = the particles' 0.5
+    assert base_shear_capacity(spec, 9000.0, 1500.0, 0.02) == pytest.approx(0.5 * (9000.0 * k + 1500.0 * 9.81 * 0.02 * k**3))
+    assert base_shear_capacity(spec.replace(geometry={"base_friction": 1.0}), 9000.0, 1500.0, 0.02) == pytest.approx(
+        2 * base_shear_capacity(spec, 9000.0, 1500.0, 0.02))
+    # ribs or a lateral wall with friction also hold the bed: the bound does not apply
+    assert np.isnan(base_shear_capacity(spec.replace(geometry={"base_ribs": 12}), 9000.0, 1500.0, 0.02))
+    assert np.isnan(base_shear_capacity(spec.replace(geometry={"wall_friction": 0.3}), 9000.0, 1500.0, 0.02))
+
+
+def test_a_bed_sliding_on_its_base_is_flagged_and_one_held_by_it_is_not():
+    from calibrax.core.sheartest import steady_base_load
+
+    spec = ShearCellSpec.preset("quick")  # flat base, μ_b = 0.5: it holds τ up to ≈ 0.54 σ at 9 kPa
+    sliding = _shear_result_at(spec, 0.53)
+    assert steady_base_load(spec, sliding.steps, sliding.bulk_density) == pytest.approx(0.98, abs=0.01)
+    assert any("slid on the base" in w for w in sliding.warnings)
+    held = _shear_result_at(spec, 0.40)
+    assert not any("slid on the base" in w for w in held.warnings)
+    ribbed = spec.replace(geometry={"base_ribs": 12})
+    assert not any("slid on the base" in w for w in _shear_result_at(ribbed, 0.53).warnings)
+
+
+def test_with_base_ribs_no_particle_starts_inside_a_rib():
+    from calibrax.core.packing import initial_packing
+
+    spec = ShearCellSpec.preset("tiny").replace(geometry={"base_ribs": 8})
+    pack = initial_packing(spec)
+    assert np.all(pack.positions[:, 2] - pack.radii >= spec.geometry.rib_height)
+    flat = initial_packing(ShearCellSpec.preset("tiny"))
+    np.testing.assert_allclose(pack.positions[:, 2] - flat.positions[:, 2], spec.geometry.rib_height)

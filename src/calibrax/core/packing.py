@@ -59,7 +59,8 @@ def initial_packing(spec: ShearCellSpec) -> InitialPacking:
     """The particles of ``spec`` before the pour, drawn from ``spec.numerics.seed``.
 
     The jitter can push an outer sphere a few per cent of its radius into the vessel wall; a
-    Hertz overlap that deep launches it, so such spheres are moved radially back inside.
+    Hertz overlap that deep launches it, so such spheres are moved radially back inside. With
+    base ribs the whole column is lifted by the rib height, so that no sphere starts in a rib.
     """
     rng = np.random.default_rng(spec.numerics.seed)
     n = spec.particle_count
@@ -73,4 +74,8 @@ def initial_packing(spec: ShearCellSpec) -> InitialPacking:
     scale = np.where(rho > limit, limit / np.maximum(rho, 1e-300), 1.0)
     x[:, :2] *= scale[:, None]
     x[:, 2] = np.maximum(x[:, 2], 1.001 * radii)
+    if spec.geometry.base_ribs > 0:
+        # the column starts on the ribs' tops: a sphere placed across a rib (a plate of no
+        # thickness) would start almost a radius deep in it and be launched (NaN in the pour)
+        x[:, 2] += spec.geometry.rib_height
     return InitialPacking(radii, x, v)

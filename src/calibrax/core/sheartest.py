@@ -27,7 +27,7 @@ __all__ = [
     "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",
     "StepRecord", "Provenance", "ShearTestResult", "YieldLocus", "MohrAnalysis",
     "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
-    "PROCEDURES", "FIDELITY_PRESETS",
+    "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "PROCEDURES", "FIDELITY_PRESETS",
 ]
 
 
@@ -462,6 +462,57 @@ def inertial_number(spec: ShearCellSpec, normal_stress: float) -> float:
     return rate * d / math.sqrt(normal_stress / spec.material.density)
 
 
+#: gravitational acceleration, m/s² (every backend's)
+GRAVITY = 9.81
+
+
+def base_shear_capacity(spec: ShearCellSpec, normal_stress: float, bulk_density: float,
+                        bed_height: float) -> float:
+    """The largest τ (Pa, read as the head's τ = 3T/(2π R_head³)) that a flat base can hold the
+    bed against, or NaN where the bound does not apply (base ribs, or a lateral wall with friction:
+    then the base is not the only thing that holds the bed).
+
+    With a frictionless lateral wall the base carries the whole of the head's torque T in steady
+    shear. A flat base of friction μ_b under a uniform pressure p_b = σ (R_h/R_v)² + ρ g H can resist
+    at most μ_b p_b (2π/3) R_v³ (rolling resistance has no moment about the axis), so
+
+        τ_cap = μ_b [σ (R_v/R_h) + ρ g H (R_v/R_h)³].
+
+    When the steady τ reaches τ_cap the bed slides on the base as a block and τ measures the base's
+    friction, not the powder's strength.
+
+    Args:
+        normal_stress: σ on the head, Pa. bulk_density: ρ of the bed, kg/m³.
+        bed_height: H, height of the head's lower face above the base, m.
+    """
+    g = spec.geometry
+    if g.base_ribs > 0 or g.wall_friction > 0:
+        return math.nan
+    mu_base, _ = spec.effective_base_friction()
+    ratio = g.vessel_diameter / 2.0 / g.head_radius
+    return mu_base * (normal_stress * ratio + bulk_density * GRAVITY * bed_height * ratio**3)
+
+
+#: a shear step whose steady τ reaches this fraction of :func:`base_shear_capacity` slid on the base
+BASE_SLIP_FRACTION = 0.9
+
+
+def steady_base_load(spec: ShearCellSpec, steps: "list[StepRecord] | tuple[StepRecord, ...]",
+                     bulk_density: "np.ndarray | list[float]") -> float:
+    """Mean over the shear steps of steady τ / :func:`base_shear_capacity` (fraction; NaN where the
+    bound does not apply). Steady: the second half of each window; ``bulk_density[k]`` (kg/m³) is
+    the bed's density before shear step k."""
+    loads = []
+    for k, step in enumerate(s for s in steps if s.kind == "shear"):
+        half = step.shear_stress.size // 2
+        if half < 1 or k >= len(bulk_density):
+            continue
+        cap = base_shear_capacity(spec, float(np.mean(step.normal_stress[half:])), float(bulk_density[k]),
+                                  float(np.mean(step.bed_height[half:])))
+        loads.append(float(np.mean(step.shear_stress[half:])) / cap)
+    return float(np.mean(loads)) if loads else math.nan
+
+
 def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> tuple[float, int, float]:
     """The peak of a shear step: the maximum of a running mean of width ``window`` (rad).
 
@@ -583,6 +634,13 @@ class ShearTestResult:
             tail = slice(int(0.6 * s.shear_stress.size), None)
             tau_pre.append(float(np.mean(s.shear_stress[tail])) if s.shear_stress.size else float("nan"))
             sig_pre.append(float(np.mean(s.normal_stress[tail])) if s.normal_stress.size else float("nan"))
+        load = steady_base_load(spec, shear, bulk_density)
+        if load >= BASE_SLIP_FRACTION:
+            mu_base, _ = spec.effective_base_friction()
+            warns.append(f"the bed slid on the base: the steady τ of the shear steps reached {load:.0%} of what the "
+                         f"flat base (μ = {mu_base:g}) can hold, so τ measures the base's friction more than the "
+                         "powder's strength; give the base ribs (geometry.base_ribs) or more friction "
+                         "(geometry.base_friction)")
         i_max = max(inert, default=0.0)
         if i_max > 1e-2:
             warns.append(f"inertial number up to {i_max:.1e} > 1e-2: the shear was not quasi-static; "

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrax.core.executor import SimulationTask
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
 from calibrax.core.store import CampaignStore
 from calibrax.core.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError, SimulationFailed
@@ -101,7 +101,8 @@ class CaseOutcome:
         """C and AIF (pooled fit) with their regression s.e., the seed-to-seed s.d., and the
         uncertainty of the estimate u = max(regression s.e., s.d./√n); mean peaks per step (Pa),
         bulk density after the first preshear (kg/m³) with its seed s.d. and u = s.d./√n; the
-        seeds' mean :func:`shear_window_diagnostics` (with ``_sd``, their seed s.d.)."""
+        seeds' mean :func:`shear_window_diagnostics` and ``base_load`` (steady τ over what a flat base can
+        hold, :func:`~calibrax.core.sheartest.steady_base_load`), each with ``_sd``, their seed s.d."""
         locus = self.locus()
         loci = self.seed_loci()
         n = len(loci)
@@ -122,7 +123,8 @@ class CaseOutcome:
             "particles": float(self.good[0].provenance.particle_count),
         })
         out["bulk_density_u"] = out["bulk_density_sd"] / math.sqrt(len(self.good))
-        windows = [shear_window_diagnostics(r) for r in self.good]
+        windows = [dict(shear_window_diagnostics(r),
+                        base_load=steady_base_load(self.case.spec, r.steps, r.bulk_density)) for r in self.good]
         for key in windows[0]:
             values = [w[key] for w in windows]
             out[key] = float(np.nanmean(values))

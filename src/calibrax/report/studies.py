@@ -16,6 +16,7 @@ from matplotlib.patches import Ellipse  # noqa: E402
 
 from calibrax.core.convergence import DENSITY_TOLERANCE, Verdict, inertial_numbers  # noqa: E402
 from calibrax.core.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
+from calibrax.core.sheartest import BASE_SLIP_FRACTION  # noqa: E402
 from calibrax.core.study import CaseOutcome  # noqa: E402
 from calibrax.report.figures import _save  # noqa: E402
 
@@ -94,18 +95,25 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
     lines = ["## σ while shearing", "",
              "The peak is the largest τ of a shear window and τ follows σ: a servo that lets σ swing reads a "
              "higher peak at the same target. Where backends' peaks differ, compare these before the contact "
-             "laws. Steady: the second half of each window; mean over shear steps and seeds (± seed s.d.).", "",
-             "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ |",
-             "|---|---|---|---|---|"]
+             "laws. Steady: the second half of each window; mean over shear steps and seeds (± seed s.d.). "
+             "Base load: steady τ over the most a flat base can hold the bed against (μ_base [σ R_v/R_h + "
+             "ρ g H (R_v/R_h)³], uniform pressure, frictionless lateral wall; – with ribs or wall friction): "
+             f"at ≥ {BASE_SLIP_FRACTION:.0%} the bed slides on the base and τ measures the base's friction, and "
+             "anything else that resists the turning bed (a lateral wall that is not smooth) adds to τ.", "",
+             "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ | base load |",
+             "|---|---|---|---|---|---|"]
     for o in outcomes:
         s = o.summary()
 
         def cell(key: str, scale: float, digits: str, unit: str) -> str:
             v, sd = s.get(key, math.nan), s.get(f"{key}_sd", math.nan)
+            if not math.isfinite(v):
+                return "–"
             return _fmt(v * scale, digits) + (f" ± {sd * scale:{digits.lstrip('+')}}" if math.isfinite(sd) else "") + unit
 
         lines.append(f"| {o.case.label} | {o.case.backend} | {cell('sigma_sd', 100, '.1f', ' %')} | "
-                     f"{cell('sigma_offset_at_peak', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} |")
+                     f"{cell('sigma_offset_at_peak', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} | "
+                     f"{cell('base_load', 100, '.0f', ' %')} |")
     return lines + [""]
 
 
