@@ -49,8 +49,9 @@ Remaining differences (also in the README):
    particle pair carrying σ_pre (2r)² (the preshear stress), instead of following δ;
 4. rolling limit: η = μr/2 makes η R_mean = μr R* exact for equal spheres; for unequal ones YADE's
    limit is (r_i + r_j)²/(4 r_i r_j) ≥ 1 times LIGGGHTS'; on facets it is 0.75 μr r
-   (LIGGGHTS: μr r), and the lateral wall keeps this rolling resistance even when frictionless
-   (numba_dem: none), because YADE has one η for every contact;
+   (LIGGGHTS: μr r). YADE has one η for every contact, so a lateral wall without friction would
+   keep it; the script takes it off that wall's contacts (numba_dem and LIGGGHTS have none there,
+   and with it the vessel carried a fifth of the head's torque);
 5. no twisting resistance in either (k_tw = 0).
 """
 

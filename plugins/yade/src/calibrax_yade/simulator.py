@@ -15,7 +15,8 @@ reproduce LIGGGHTS' ``hertz`` + ``tangential history`` + ``rolling_friction epsd
    preshear stress unstable at the spec's time step (see :mod:`calibrax_yade.contact`);
 3. the rolling stiffness k_r is a constant (EPSD2's value at the preshear stress's Hertz overlap);
 4. one rolling coefficient for every contact: exact (μr R*) for equal spheres; 0.75 μr r against
-   facets (LIGGGHTS μr r), also against the frictionless lateral wall (numba_dem: none there);
+   facets (LIGGGHTS μr r); a lateral wall without friction has none, as in numba_dem and
+   LIGGGHTS (the script takes it off the wall's contacts every WALL_ROLLING_PERIOD steps);
    unequal spheres get a limit (r_i + r_j)²/(4 r_i r_j) times larger;
 5. the cell is made of facets (polygonal vessel, fan-disc base and head), the facets carrying a
    fictitious material (ν_w = ν, E_w ≈ 1.58 E) that restores LIGGGHTS' wall stiffnesses exactly
@@ -58,6 +59,9 @@ APPROACH_CLEARANCE = 0.5
 MAX_SPEED = 20.0
 #: the head's servo is updated, and force/torque sampled, every this many time steps
 SERVO_SUBSTEPS = 1
+#: steps between two sweeps that take the rolling resistance off the frictionless lateral wall's new
+#: contacts (YADE gives every contact the same rolling limit; ~1 % of the run time at 10)
+WALL_ROLLING_PERIOD = 10
 #: the servo's head mass as a fraction of the bed's mass, and its v_ref time constant in (estimated)
 #: head–bed periods: numba_dem's (``calibrax_numba_dem.servo``: a light head, one period), which keep
 #: the mean σ of each window within a few per cent (see the README's servo paragraph)
@@ -102,6 +106,8 @@ def build_params(spec: ShearCellSpec) -> dict:
         "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
         "approach_speed": APPROACH_SPEED, "shear_speed_limit": SHEAR_SPEED_LIMIT,
         "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED,
+        # numba_dem's and LIGGGHTS' rule: a lateral wall without friction has no rolling resistance
+        "wall_rolling": 1.0 if g.wall_friction > 0 else 0.0, "wall_rolling_period": float(WALL_ROLLING_PERIOD),
     }
 
 
@@ -110,6 +116,15 @@ def _array(rec: dict, key: str, n: int) -> np.ndarray:
     if a.shape != (n,) or not np.all(np.isfinite(a)):
         raise ValueError(f"channel {key!r} has shape {a.shape} or non-finite values")
     return a
+
+
+def _steady_ratio(rec: dict) -> float:
+    """Torque on the lateral wall over the head's torque in the second half of a step's window
+    (fraction; the wall should carry none when it has no friction)."""
+    n = len(rec["time"])
+    wall = _array(rec, "wall_torque", n)[n // 2:]
+    head = _array(rec, "torque", n)[n // 2:]
+    return float(np.mean(wall) / np.mean(head))
 
 
 class YadeSimulator:
@@ -194,6 +209,7 @@ class YadeSimulator:
                     rotation=_array(rec, "rotation", n),
                     shear_stress=np.asarray(shear_stress_from_torque(torque, spec.geometry.head_radius), dtype=float),
                     normal_stress=force / area, bed_height=_array(rec, "head_height", n)))
+            vessel_share = [_steady_ratio(rec) for rec in out["steps"] if rec["kind"] == "shear"]
             bulk = [float(b) for b in out["bulk_density"]]
             if len([s for s in steps if s.kind == "shear"]) != len(spec.procedure.shear_stresses):
                 raise ValueError("missing shear steps")
@@ -208,5 +224,6 @@ class YadeSimulator:
                                  "servo_sigma_errors": out.get("sigma_errors", []),
                                  "stress_area": "pi*head_radius**2", "servo_substeps": SERVO_SUBSTEPS,
                                  "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
-                                 "shear_restitution": SHEAR_RESTITUTION})
+                                 "shear_restitution": SHEAR_RESTITUTION,
+                                 "vessel_torque_fraction": float(np.mean(vessel_share)) if vessel_share else None})
         return ShearTestResult.from_steps(spec, steps, bulk, prov, list(out.get("warnings", [])))

@@ -131,12 +131,31 @@ head_engine = trans + rot
 head_engine.dead = True  # switched on when the head is placed
 
 
+def clear_wall_rolling():
+    """Take the rolling resistance off the lateral wall's contacts (numba_dem and LIGGGHTS give a
+    wall without friction none). YADE's Ip2 gives every new contact eta's rolling limit, and with it
+    a frictionless vessel carried about a fifth of the head's torque through the particles' rolling
+    moments. Run every wall_rolling_period steps: a new wall contact keeps its rolling stiffness for
+    at most that many steps, then its limit is 0 and its moment is clipped to 0."""
+    for fid in wall_ids:
+        for I in O.interactions.withBody(fid):
+            ph = I.phys
+            if ph is not None and ph.maxBendPl != 0.0:
+                ph.maxBendPl = 0.0
+                ph.kr = 0.0
+                ph.momentBend = Vector3(0, 0, 0)
+
+
 # the head's kinematic engine is in the loop from the start (with no bodies until the head is
 # placed): the engine list is never replaced mid-run
-O.engines = [ForceResetter(),
-             InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()], avoidSelfInteractionMask=NO_SELF_MASK),
-             InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()], [ip2], [law]),
-             head_engine, newton, PyRunner(iterPeriod=NSUB, command="servo_tick()")]
+WALL_ROLLING = bool(P["wall_rolling"])
+ENGINES = [ForceResetter(),
+           InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()], avoidSelfInteractionMask=NO_SELF_MASK),
+           InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()], [ip2], [law]),
+           head_engine, newton, PyRunner(iterPeriod=NSUB, command="servo_tick()")]
+if not WALL_ROLLING:
+    ENGINES.append(PyRunner(iterPeriod=int(P["wall_rolling_period"]), command="clear_wall_rolling()"))
+O.engines = ENGINES
 O.dt = DT
 
 # ------------------------------------------------------------------ the head's servo
@@ -269,8 +288,9 @@ def switch_friction(table, krot, eta):
         m1, m2 = b1.material.id, b2.material.id
         other = m2 if m1 == mat_p else m1
         I.phys.tangensOfFrictionAngle = table[other] if other != mat_p else table[mat_p]
-        I.phys.kr = krot
-        I.phys.maxBendPl = eta * 0.5 * (I.geom.refR1 + I.geom.refR2)
+        rolls = WALL_ROLLING or other != mat_w
+        I.phys.kr = krot if rolls else 0.0
+        I.phys.maxBendPl = eta * 0.5 * (I.geom.refR1 + I.geom.refR2) if rolls else 0.0
 
 
 # ------------------------------------------------------------------ phases
@@ -391,7 +411,7 @@ def rotate(kind, stress, rotation):
     per = NSUB * max(1, int(round(P["sample_interval"] / DT / NSUB)))
     nsamples = max(2, int(math.ceil(rotation / RATE / (per * DT))))
     rec = {"kind": kind, "target_stress": stress, "time": [], "rotation": [], "force": [], "torque": [],
-           "head_height": []}
+           "head_height": [], "wall_torque": []}
     take_accumulators()
     for k in range(nsamples):
         run_steps(per)
@@ -401,6 +421,7 @@ def rotate(kind, stress, rotation):
         rec["force"].append(f)
         rec["torque"].append(torque)
         rec["head_height"].append(head_z())
+        rec["wall_torque"].append(utils.sumTorques(wall_ids, (0, 0, 1), (0, 0, 0)))
         if k % 20 == 0:
             check(kind)
     check(kind)
