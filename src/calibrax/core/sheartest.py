@@ -638,7 +638,7 @@ class ShearTestResult:
         if load >= BASE_SLIP_FRACTION:
             mu_base, _ = spec.effective_base_friction()
             warns.append(f"the bed slid on the base: the steady τ of the shear steps reached {load:.0%} of what the "
-                         f"flat base (μ = {mu_base:g}) can hold, so τ measures the base's friction more than the "
+                         f"flat base (μ = {mu_base:.3g}) can hold, so τ measures the base's friction more than the "
                          "powder's strength; give the base ribs (geometry.base_ribs) or more friction "
                          "(geometry.base_friction)")
         i_max = max(inert, default=0.0)
