@@ -27,7 +27,7 @@ __all__ = [
     "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",
     "StepRecord", "Provenance", "ShearTestResult", "YieldLocus", "MohrAnalysis",
     "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
-    "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "PROCEDURES", "FIDELITY_PRESETS",
+    "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
 ]
 
 

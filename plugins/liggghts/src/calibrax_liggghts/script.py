@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest import GRAVITY, ShearCellSpec
 from calibrax.errors import SpecError
 
 from . import mesh as meshes
@@ -210,7 +210,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"pair_style gran {model}")
     add("pair_coeff * *")
     add(f"timestep {num(dt)}")
-    add(f"fix gravi all gravity {num(9.81 * POUR_GRAVITY)} vector 0.0 0.0 -1.0")
+    add(f"fix gravi all gravity {num(GRAVITY * POUR_GRAVITY)} vector 0.0 0.0 -1.0")
     add(f"fix base all mesh/surface file base.stl type {integer(T_BASE)}")
     if g.base_ribs > 0:
         add(f"fix ribs all mesh/surface file ribs.stl type {integer(T_BASE)}")
@@ -254,7 +254,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f'print "CALIBRAX start particles {integer(len(radii))}"')
 
     # ---------------------------------------------------------------- pour (numba_dem's)
-    t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (9.81 * POUR_GRAVITY))
+    t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (GRAVITY * POUR_GRAVITY))
     n_loops = int(math.ceil((10.0 * t_fall + 0.05 - 1.5 * t_fall) / 2.0e-3))
     add(f"run {chunk(1.5 * t_fall)}")
     add(f"variable ipour loop {integer(n_loops)}")
@@ -266,7 +266,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add("label pourdone")
     add(f"set group all type {integer(T_PART)}")
     add("unfix gravi")
-    add("fix gravi all gravity 9.81 vector 0.0 0.0 -1.0")
+    add(f"fix gravi all gravity {num(GRAVITY)} vector 0.0 0.0 -1.0")
     add(f"run {chunk(3.0e-3)}")
     add('print "CALIBRAX poured ${stp} ${ztop} ${vmax}"')
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import ShearCellSpec, StepRecord, shear_stress_from_torque
+from calibrax.core.sheartest import GRAVITY, ShearCellSpec, StepRecord, shear_stress_from_torque
 from calibrax.errors import SimulationFailed
 
 from .contact import beta_from_restitution, effective_moduli
@@ -79,7 +79,7 @@ class ShearTestDriver:
         self.mu_base, self.mur_base = mu_b, mur_b
         wall_mur = m.rolling_friction if g.wall_friction > 0 else 0.0
         params = make_params(
-            dt=self.dt, gz=-9.81 * POUR_GRAVITY, estar=e_star, gstar=g_star,
+            dt=self.dt, gz=-GRAVITY * POUR_GRAVITY, estar=e_star, gstar=g_star,
             beta=beta_from_restitution(m.restitution), mu=POUR_FRICTION, mur=0.0,
             coh=m.cohesion_energy_density, use_cyl=1.0, rc=self.rc, mu_wall=min(g.wall_friction, POUR_FRICTION),
             mur_wall=0.0, use_base=1.0, mu_base=POUR_FRICTION, mur_base=0.0, nribs=g.base_ribs,
@@ -137,7 +137,7 @@ class ShearTestDriver:
         s = self.sys
         h0 = float(s.x[:, 2].max())
         h_target = self.spec.geometry.fill_height
-        t_fall = math.sqrt(2.0 * max(h0 - h_target, self.spec.radius) / (9.81 * POUR_GRAVITY))
+        t_fall = math.sqrt(2.0 * max(h0 - h_target, self.spec.radius) / (GRAVITY * POUR_GRAVITY))
         self._run(1.5 * t_fall, "pour")
         t_max = 10.0 * t_fall + 0.05
         t_spent = 1.5 * t_fall
@@ -149,7 +149,7 @@ class ShearTestDriver:
             t_spent += 2.0e-3
         m, g = self.spec.material, self.spec.geometry
         p = s.params
-        p[P_GZ] = -9.81
+        p[P_GZ] = -GRAVITY
         p[P_MU] = m.sliding_friction
         p[P_MUR] = m.rolling_friction
         p[P_MU_BASE] = self.mu_base

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.packing import initial_packing
-from calibrax.core.sheartest import (Provenance, ShearCellSpec, ShearTestResult, StepRecord,
+from calibrax.core.sheartest import (GRAVITY, Provenance, ShearCellSpec, ShearTestResult, StepRecord,
                                      shear_stress_from_torque)
 from calibrax.errors import SimulationFailed, SpecError
 
@@ -87,7 +87,7 @@ def build_params(spec: ShearCellSpec) -> dict:
     disc, blades = head_mesh(g.head_radius, g.hub_radius, g.blade_count, g.blade_height, r_ref)
     mu_b, _ = spec.effective_base_friction()
     return {
-        "dt": spec.time_step, "gravity": 9.81, "pour_gravity": POUR_GRAVITY, "pour_friction": POUR_FRICTION,
+        "dt": spec.time_step, "gravity": GRAVITY, "pour_gravity": POUR_GRAVITY, "pour_friction": POUR_FRICTION,
         "density": m.density, "radius": spec.radius, "young": cp.young, "poisson": cp.poisson,
         "facet_young": cp.facet_young, "facet_poisson": cp.facet_poisson, "restitution": cp.restitution,
         "shear_restitution": cp.shear_restitution,
@@ -117,15 +117,6 @@ def _array(rec: dict, key: str, n: int) -> np.ndarray:
     if a.shape != (n,) or not np.all(np.isfinite(a)):
         raise ValueError(f"channel {key!r} has shape {a.shape} or non-finite values")
     return a
-
-
-def _steady_ratio(rec: dict) -> float:
-    """Torque on the lateral wall over the head's torque in the second half of a step's window
-    (fraction; the wall should carry none when it has no friction)."""
-    n = len(rec["time"])
-    wall = _array(rec, "wall_torque", n)[n // 2:]
-    head = _array(rec, "torque", n)[n // 2:]
-    return float(np.mean(wall) / np.mean(head))
 
 
 class YadeSimulator:
@@ -200,17 +191,22 @@ class YadeSimulator:
         try:
             out = json.loads((workdir / "result.json").read_text())
             steps = []
+            # torque on the lateral wall over the head's, second half of each shear window
+            # (fraction; a wall without friction should carry none)
+            vessel_share = []
             area = math.pi * spec.geometry.head_radius**2
             for rec in out["steps"]:
                 n = len(rec["time"])
                 force = _array(rec, "force", n)
                 torque = _array(rec, "torque", n)
+                if rec["kind"] == "shear":
+                    wall = _array(rec, "wall_torque", n)
+                    vessel_share.append(float(np.mean(wall[n // 2:]) / np.mean(torque[n // 2:])))
                 steps.append(StepRecord(
                     kind=str(rec["kind"]), target_stress=float(rec["target_stress"]), time=_array(rec, "time", n),
                     rotation=_array(rec, "rotation", n),
                     shear_stress=np.asarray(shear_stress_from_torque(torque, spec.geometry.head_radius), dtype=float),
                     normal_stress=force / area, bed_height=_array(rec, "head_height", n)))
-            vessel_share = [_steady_ratio(rec) for rec in out["steps"] if rec["kind"] == "shear"]
             bulk = [float(b) for b in out["bulk_density"]]
             if len([s for s in steps if s.kind == "shear"]) != len(spec.procedure.shear_stresses):
                 raise ValueError("missing shear steps")
