@@ -62,6 +62,7 @@ def test_steps_and_conventions(result):
     assert res.provenance.extra["stress_area"] == "pi*head_radius**2"
     assert np.all((res.bulk_density > 1000) & (res.bulk_density < 3000))
     assert res.provenance.backend == "yade" and "YADE" in res.provenance.engine_version
+    assert isinstance(res.provenance.wall_time, float) and res.provenance.wall_time > 0
     assert res.provenance.particle_count == SPEC.particle_count
     assert (workdir / "params.json").exists() and (workdir / "ft4_shear.log").exists()
 

@@ -200,8 +200,8 @@ class YadeSimulator:
                 force = _array(rec, "force", n)
                 torque = _array(rec, "torque", n)
                 if rec["kind"] == "shear":
-                    wall = _array(rec, "wall_torque", n)
-                    vessel_share.append(float(np.mean(wall[n // 2:]) / np.mean(torque[n // 2:])))
+                    vessel_torque = _array(rec, "wall_torque", n)
+                    vessel_share.append(float(np.mean(vessel_torque[n // 2:]) / np.mean(torque[n // 2:])))
                 steps.append(StepRecord(
                     kind=str(rec["kind"]), target_stress=float(rec["target_stress"]), time=_array(rec, "time", n),
                     rotation=_array(rec, "rotation", n),
