@@ -91,3 +91,10 @@ def test_frictionless_vessel_carries_almost_none_of_the_torque(result):
     res, _ = result
     share = res.provenance.extra["vessel_torque_fraction"]
     assert math.isfinite(share) and abs(share) < 0.15, share
+
+
+def test_the_default_ribbed_base_holds_and_the_slip_is_recorded(result):
+    res, _ = result
+    assert SPEC.geometry.base_ribs == 8
+    assert all(s.base_spin.size == s.time.size for s in res.steps)
+    assert np.all(np.isfinite(res.base_slip)) and np.all(res.base_slip < 0.25), res.base_slip

@@ -46,7 +46,8 @@ def test_spec_roundtrips_through_dict_and_hash_is_stable():
     ({"geometry": {"blade_count": 400}}, "geometry.blade_count"),
     ({"geometry": {"vessel_diameter": 4e-3, "head_radius": 1.9e-3, "hub_radius": 0.2e-3,
                    "fill_height": 4e-3}}, "geometry.vessel_diameter"),
-    ({"material": {"sliding_friction": 0.0}, "geometry": {"base_friction": 0.0}}, "geometry.base_friction"),
+    ({"material": {"sliding_friction": 0.0}, "geometry": {"base_friction": 0.0, "base_ribs": 0}},
+     "geometry.base_friction"),
     ({"material": {"youngs_modulus": float("nan")}}, "material.youngs_modulus"),
 ])
 def test_bad_specs_are_refused_with_the_field_named(changes, key):
@@ -86,7 +87,7 @@ def _shear_result_at(spec, friction: float):
 def test_base_capacity_is_the_flat_bases_coulomb_limit_under_uniform_pressure():
     from calibrax.core.sheartest import base_shear_capacity
 
-    spec = ShearCellSpec.preset("quick")
+    spec = ShearCellSpec.preset("quick", geometry={"base_ribs": 0})
     g = spec.geometry
     k = g.vessel_diameter / 2 / g.head_radius
     # μ_b [σ R_v/R_h + ρ g H (R_v/R_h)³] with μ_b = the particles' 0.5
@@ -101,7 +102,7 @@ def test_base_capacity_is_the_flat_bases_coulomb_limit_under_uniform_pressure():
 def test_a_bed_sliding_on_its_base_is_flagged_and_one_held_by_it_is_not():
     from calibrax.core.sheartest import steady_base_load
 
-    spec = ShearCellSpec.preset("quick")  # flat base, μ_b = 0.5: it holds τ up to ≈ 0.54 σ at 9 kPa
+    spec = ShearCellSpec.preset("quick", geometry={"base_ribs": 0})  # flat, μ_b = 0.5: holds τ ≤ 0.54 σ at 9 kPa
     sliding = _shear_result_at(spec, 0.53)
     assert steady_base_load(spec, sliding.steps, sliding.bulk_density) == pytest.approx(0.98, abs=0.01)
     assert any("slid on the base" in w for w in sliding.warnings)
@@ -114,8 +115,52 @@ def test_a_bed_sliding_on_its_base_is_flagged_and_one_held_by_it_is_not():
 def test_with_base_ribs_no_particle_starts_inside_a_rib():
     from calibrax.core.packing import initial_packing
 
-    spec = ShearCellSpec.preset("tiny").replace(geometry={"base_ribs": 8})
+    spec = ShearCellSpec.preset("tiny")
+    assert spec.geometry.base_ribs == 8  # the default base
     pack = initial_packing(spec)
     assert np.all(pack.positions[:, 2] - pack.radii >= spec.geometry.rib_height)
-    flat = initial_packing(ShearCellSpec.preset("tiny"))
+    flat = initial_packing(ShearCellSpec.preset("tiny", geometry={"base_ribs": 0}))
     np.testing.assert_allclose(pack.positions[:, 2] - flat.positions[:, 2], spec.geometry.rib_height)
+
+
+def test_every_preset_holds_the_bed_with_one_diameter_ribs_by_default():
+    for name in ("tiny", "quick", "paper"):
+        spec = ShearCellSpec.preset(name)
+        assert spec.geometry.base_ribs == spec.geometry.blade_count
+        assert spec.geometry.rib_height == pytest.approx(2 * spec.radius)
+        assert spec.geometry.wall_friction == 0.0  # the paper's frictionless lateral wall stays
+
+
+def _with_spin(result, spin_fraction: float):
+    """The same hand-made result with its bottom layer turning at ``spin_fraction`` of the head's rate."""
+    import dataclasses
+
+    from calibrax.core.sheartest import ShearTestResult
+
+    steps = [dataclasses.replace(s, base_spin=np.full(s.time.size, spin_fraction * 5.0)) for s in result.steps]
+    return ShearTestResult.from_steps(ShearCellSpec.preset("quick"), steps, [1500.0], result.provenance)
+
+
+def test_slip_is_measured_from_the_bottom_layers_spin_whatever_the_base():
+    # a ribbed base (the bound does not apply) whose bottom layer turns with the head is flagged,
+    # one whose bottom layer stands still is not, and the measured slip is the spin over the head's rate
+    ribbed = ShearCellSpec.preset("quick")
+    turning = _with_spin(_shear_result_at(ribbed, 0.7), 0.8)
+    assert turning.base_slip == pytest.approx([0.8])
+    assert any("slid on the base" in w for w in turning.warnings)
+    still = _with_spin(_shear_result_at(ribbed, 0.7), 0.02)
+    assert not any("slid on the base" in w for w in still.warnings)
+
+
+def test_layer_spin_is_the_mean_angular_velocity_of_the_layer():
+    from calibrax.core.sheartest import base_layer_bounds, layer_spin
+
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-0.01, 0.01, (200, 3))
+    x[:, 2] = rng.uniform(0.0, 0.01, 200)
+    omega = 3.0
+    v = np.stack([-omega * x[:, 1], omega * x[:, 0], np.zeros(200)], axis=1)  # rigid rotation
+    assert layer_spin(x, v, 0.0, 0.002) == pytest.approx(omega)
+    assert np.isnan(layer_spin(x, v, 0.02, 0.03))
+    spec = ShearCellSpec.preset("tiny")
+    assert base_layer_bounds(spec) == pytest.approx((spec.geometry.rib_height, spec.geometry.rib_height + 2 * spec.radius))

@@ -27,7 +27,8 @@ __all__ = [
     "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",
     "StepRecord", "Provenance", "ShearTestResult", "YieldLocus", "MohrAnalysis",
     "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
-    "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
+    "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "BASE_SPIN_SLIP_FRACTION",
+    "base_slip", "base_layer_bounds", "layer_spin", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
 ]
 
 
@@ -107,8 +108,12 @@ class Geometry:
 
     The head is a disc of radius ``head_radius`` with ``blade_count`` radial blades of height
     ``blade_height`` hanging below it, from ``hub_radius`` out to ``head_radius``. The lateral wall
-    is frictionless by default (the paper's hypothesis); the base takes the particles' μs and μr
-    (``None``), because a bed on a frictionless base *and* wall turns with the head.
+    is frictionless by default (the paper's hypothesis). The base holds the bed with ``base_ribs``
+    radial ribs (vertical plates from the axis to the wall, ``rib_height`` high, one particle
+    diameter by default), as ring shear cells hold theirs with cleats: a flat base of the particles'
+    own friction can hold at most τ ≈ 0.55 σ, below the powder's strength, so the bed would slide
+    on it as a block and τ would measure the base (``base_ribs: 0`` gives that flat base). The base
+    and ribs take the particles' μs and μr (``None``).
     """
 
     vessel_diameter: float = 61.2e-3
@@ -121,7 +126,7 @@ class Geometry:
     base_friction: float | None = None
     base_rolling_friction: float | None = None
     head_friction: float | None = None
-    base_ribs: int = 0
+    base_ribs: int = 18
     rib_height: float = 1.8e-3
 
 
@@ -245,6 +250,7 @@ class ShearCellSpec:
             blade_count=p["blade_count"],
             blade_height=p["blade_height_d"] * d,
             hub_radius=0.1 * diameter,
+            base_ribs=p["base_ribs"],
             rib_height=d,
         )
         proc = dataclasses.replace(PROCEDURES[procedure], **p["procedure"])
@@ -411,23 +417,23 @@ PROCEDURES: dict[str, Procedure] = {
 }
 
 #: Fidelity presets: cell size in particle diameters (H/D = 0.88 as the paper's 12k…200k beds),
-#: time-step fraction, rotation and sampling. ``paper`` is the reference paper's converged setting;
+#: time-step fraction, rotation and sampling, and as many one-diameter base ribs as the head has blades. ``paper`` is the reference paper's converged setting;
 #: ``quick`` fits a 2-core machine; ``tiny`` is for tests and is noisy by design.
 FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
     "paper": {
-        "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0,
+        "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
         "procedure": {"rotation_rate": 0.5, "preshear_rotation": 0.30, "shear_rotation": 0.20,
                       "settle_time": 0.02, "peak_window": 0.01},
         "numerics": {"dt_fraction": 0.05, "sample_interval": 2.0e-4},
     },
     "quick": {
-        "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0,
+        "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0, "base_ribs": 12,
         "procedure": {"rotation_rate": 5.0, "preshear_rotation": 0.15, "shear_rotation": 0.12,
                       "settle_time": 0.005, "peak_window": 0.015},
         "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
     },
     "tiny": {
-        "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0,
+        "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0, "base_ribs": 8,
         "procedure": {"rotation_rate": 6.0, "preshear_rotation": 0.12, "shear_rotation": 0.12,
                       "settle_time": 0.004, "peak_window": 0.015},
         "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
@@ -513,6 +519,42 @@ def steady_base_load(spec: ShearCellSpec, steps: "list[StepRecord] | tuple[StepR
     return float(np.mean(loads)) if loads else math.nan
 
 
+#: a shear step whose bottom layer turned, on average over the second half of the window, at this
+#: fraction of the head's rotation rate or more slid on its base (see :func:`base_slip`)
+BASE_SPIN_SLIP_FRACTION = 0.25
+
+
+def base_layer_bounds(spec: ShearCellSpec) -> tuple[float, float]:
+    """Heights (m) between which a particle's centre lies in the layer whose spin is
+    :attr:`StepRecord.base_spin`: one particle diameter just above the base's top (the ribs' tops
+    where it has ribs, since particles between the ribs are held by them whatever happens above)."""
+    top = spec.geometry.rib_height if spec.geometry.base_ribs > 0 else 0.0
+    return top, top + 2.0 * spec.radius
+
+
+def layer_spin(x: np.ndarray, v: np.ndarray, z_low: float, z_high: float) -> float:
+    """Mean angular velocity about the z axis (rad/s) of the particles whose centre height lies in
+    [z_low, z_high), from positions ``x`` and velocities ``v`` of shape (n, 3) in m and m/s;
+    NaN when the layer is empty. Particles within 1e-9 m of the axis are left out."""
+    z = x[:, 2]
+    rho2 = x[:, 0] ** 2 + x[:, 1] ** 2
+    m = (z >= z_low) & (z < z_high) & (rho2 > 1e-18)
+    if not np.any(m):
+        return math.nan
+    return float(np.mean((x[m, 0] * v[m, 1] - x[m, 1] * v[m, 0]) / rho2[m]))
+
+
+def base_slip(step: "StepRecord", rotation_rate: float) -> float:
+    """How fast the bed's bottom layer turned with the head over the second half of a step: the
+    mean of :attr:`StepRecord.base_spin` there over the head's rotation rate (rad/s), a fraction
+    (0: the base held the bed and the shear happened in the powder; near 1: the bed turned on its
+    base as a block). NaN where the backend did not record the spin."""
+    spin = np.asarray(step.base_spin, dtype=float)
+    if spin.size < 2 or not np.any(np.isfinite(spin)):
+        return math.nan
+    return float(np.nanmean(spin[spin.size // 2:]) / rotation_rate)
+
+
 def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> tuple[float, int, float]:
     """The peak of a shear step: the maximum of a running mean of width ``window`` (rad).
 
@@ -557,6 +599,10 @@ class StepRecord:
         time: s since the start of the test. rotation: head rotation since the step's start, rad.
         shear_stress: τ from the head torque, Pa. normal_stress: σ measured on the head, Pa.
         bed_height: height of the head's lower face (blade tips excluded) above the base, m.
+        base_spin: mean angular velocity about the cell's axis of the particles in the layer just
+            above the base (just above the ribs' tops where the base has ribs: centres within one
+            particle diameter of it), rad/s; compared with the head's rotation rate it says whether
+            the bed slid on its base (:func:`base_slip`). Empty where a backend did not record it.
     """
 
     kind: str
@@ -566,8 +612,9 @@ class StepRecord:
     shear_stress: np.ndarray
     normal_stress: np.ndarray
     bed_height: np.ndarray
+    base_spin: np.ndarray = field(default_factory=lambda: np.empty(0))
 
-    CHANNELS = ("time", "rotation", "shear_stress", "normal_stress", "bed_height")
+    CHANNELS = ("time", "rotation", "shear_stress", "normal_stress", "bed_height", "base_spin")
 
 
 @dataclass(frozen=True)
@@ -634,8 +681,16 @@ class ShearTestResult:
             tail = slice(int(0.6 * s.shear_stress.size), None)
             tau_pre.append(float(np.mean(s.shear_stress[tail])) if s.shear_stress.size else float("nan"))
             sig_pre.append(float(np.mean(s.normal_stress[tail])) if s.normal_stress.size else float("nan"))
+        slips = [base_slip(s, spec.procedure.rotation_rate) for s in shear]
+        slipped = [(k, v) for k, v in enumerate(slips) if v >= BASE_SPIN_SLIP_FRACTION]
         load = steady_base_load(spec, shear, bulk_density)
-        if load >= BASE_SLIP_FRACTION:
+        if slipped:
+            worst = max(v for _, v in slipped)
+            warns.append(f"the bed slid on the base: its bottom layer turned at up to {worst:.0%} of the head's rate "
+                         f"in {len(slipped)} of {len(shear)} shear steps (≥ {BASE_SPIN_SLIP_FRACTION:.0%}), so τ "
+                         "measures the base more than the powder; give the base (more, higher) ribs "
+                         "(geometry.base_ribs, geometry.rib_height) or more friction (geometry.base_friction)")
+        elif load >= BASE_SLIP_FRACTION and not any(np.isfinite(slips)):
             mu_base, _ = spec.effective_base_friction()
             warns.append(f"the bed slid on the base: the steady τ of the shear steps reached {load:.0%} of what the "
                          f"flat base (μ = {mu_base:.3g}) can hold, so τ measures the base's friction more than the "
@@ -659,6 +714,20 @@ class ShearTestResult:
             provenance=provenance,
             warnings=tuple(warns),
         )
+
+    @property
+    def base_slip(self) -> np.ndarray:
+        """Per shear step, the bottom layer's spin over the head's rate (:func:`base_slip`), shape
+        (k,); NaN where the backend did not record it."""
+        rate = self._rotation_rate()
+        return np.asarray([base_slip(s, rate) for s in self.steps if s.kind == "shear"], dtype=float)
+
+    def _rotation_rate(self) -> float:
+        """The head's rotation rate, rad/s, read off the first step's time series."""
+        for s in self.steps:
+            if s.rotation.size >= 2 and s.time[-1] > s.time[0]:
+                return float((s.rotation[-1] - s.rotation[0]) / (s.time[-1] - s.time[0]))
+        return math.nan
 
     def is_finite(self) -> bool:
         """True when every peak and measured σ is a finite number."""

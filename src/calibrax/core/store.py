@@ -36,6 +36,8 @@ from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
 FORMAT = "calibrax-store/1"
+#: the experiment's optional per-point arrays (stores written before they existed read as NaN)
+EXPERIMENT_ARRAYS = ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density")
 RESULT_ARRAYS = ("peak_shear_stress", "peak_normal_stress", "target_normal_stress", "peak_position",
                  "bulk_density", "preshear_shear_stress", "preshear_normal_stress", "inertial_number")
 
@@ -306,6 +308,9 @@ def _write_experiment(group: h5py.Group, exp: Experiment) -> None:
     group.create_dataset("normal_stress", data=exp.normal_stress)
     group.create_dataset("peak_shear_stress", data=exp.peak_shear_stress)
     group.create_dataset("replicate", data=exp.replicate)
+    group.attrs["wall_friction_angle_deg"] = exp.wall_friction_angle_deg
+    for key in EXPERIMENT_ARRAYS:
+        group.create_dataset(key, data=np.asarray(getattr(exp, key), dtype=float))
     curves = group.create_group("curves")
     for i, ((rep, sigma), (rot, tau)) in enumerate(sorted(exp.curves.items())):
         c = curves.create_group(f"c{i:03d}")
@@ -318,9 +323,11 @@ def _read_experiment(group: h5py.Group) -> Experiment:
     curves = {(int(c.attrs["replicate"]), float(c.attrs["normal_stress"])): (c["rotation"][()], c["shear_stress"][()])
               for c in group["curves"].values()}
     a = group.attrs
+    optional = {key: group[key][()] for key in EXPERIMENT_ARRAYS if key in group}
     return Experiment(str(a["name"]), group["normal_stress"][()], group["peak_shear_stress"][()],
                       group["replicate"][()], float(a["preshear_stress"]), float(a["preshear_shear_stress"]),
-                      curves, str(a["source"]), tuple(json.loads(a["files"])))
+                      curves, str(a["source"]), tuple(json.loads(a["files"])),
+                      wall_friction_angle_deg=float(a.get("wall_friction_angle_deg", np.nan)), **optional)
 
 
 def _write_result(group: h5py.Group, result: ShearTestResult) -> None:
@@ -346,7 +353,7 @@ def _read_result(group: h5py.Group) -> ShearTestResult:
     for key in sorted(group["steps"]):
         s = group["steps"][key]
         steps.append(StepRecord(str(s.attrs["kind"]), float(s.attrs["target_stress"]),
-                                *(s[ch][()] for ch in StepRecord.CHANNELS)))
+                                *(s[ch][()] if ch in s else np.empty(0) for ch in StepRecord.CHANNELS)))
     arrays = {name: group["peaks"][name][()] for name in RESULT_ARRAYS}
     return ShearTestResult(steps=tuple(steps), provenance=Provenance(**prov),
                            warnings=tuple(json.loads(group.attrs.get("warnings", "[]"))), **arrays)

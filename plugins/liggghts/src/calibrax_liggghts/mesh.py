@@ -5,8 +5,8 @@ not a mesh but LIGGGHTS' analytic cylinder (see ``script.py``):
 
 * base: the plane z = 0, a disc slightly wider than the vessel;
 * ribs (optional): ``base_ribs`` vertical radial plates of height ``rib_height`` at angles
-  2πk/n, from the axis out to the vessel wall (they start 0.05 R off the axis so that the plates do
-  not share their inner edge);
+  2πk/n, from the head's hub radius out to the vessel wall (ribs meeting at the axis would wedge a
+  particle among all their edges at once);
 * head: in its own frame, a disc of radius ``head_radius`` at z = 0 (its lower face is the head's
   height) with ``blade_count`` thin radial blades hanging below it, from ``hub_radius`` to
   ``head_radius``, down to z = −``blade_height``; blade k lies at angle 2πk/n at rotation 0.
@@ -65,10 +65,12 @@ def base_mesh(vessel_radius: float, particle_radius: float) -> Mesh:
     return _fan_disc(1.05 * vessel_radius, 0.0, segments_for(vessel_radius, particle_radius), 0.0)
 
 
-def ribs_mesh(vessel_radius: float, count: int, height: float, particle_radius: float) -> Mesh:
-    """``count`` radial ribs of height ``height`` on the base."""
-    s0 = 0.05 * particle_radius
-    return np.concatenate([_plate(2.0 * math.pi * k / count, s0, vessel_radius, 0.0, height) for k in range(count)])
+def ribs_mesh(inner_radius: float, vessel_radius: float, count: int, height: float) -> Mesh:
+    """``count`` radial ribs of height ``height`` on the base, from ``inner_radius`` (the head's hub
+    radius, as numba_dem: ribs meeting at the axis wedge a particle among all their edges at once)
+    to the wall."""
+    return np.concatenate([_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
+                           for k in range(count)])
 
 
 def head_mesh(head_radius: float, hub_radius: float, blade_count: int, blade_height: float,

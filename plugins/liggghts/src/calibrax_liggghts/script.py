@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import GRAVITY, ShearCellSpec
+from calibrax.core.sheartest import GRAVITY, ShearCellSpec, base_layer_bounds
 from calibrax.errors import SpecError
 
 from . import mesh as meshes
@@ -150,7 +150,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
                                                             g.blade_height, r), "head")
     mesh_ids = ["base"]
     if g.base_ribs > 0:
-        meshes.write_stl(workdir / "ribs.stl", meshes.ribs_mesh(rc, g.base_ribs, g.rib_height, r), "ribs")
+        meshes.write_stl(workdir / "ribs.stl", meshes.ribs_mesh(g.hub_radius, rc, g.base_ribs, g.rib_height), "ribs")
         mesh_ids.append("ribs")
     mesh_ids.append("head")
 
@@ -240,6 +240,14 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"variable outside atom (x*x+y*y)>({num(rc)}+c_prad)*({num(rc)}+c_prad)")
     add("compute nout all reduce update_on_run_end yes sum v_outside")
     add("variable nout equal c_nout")
+    # the spin about the axis of the layer just above the base (or the ribs' tops), rad/s, sampled
+    # with the head's height: it says whether the bed slid on its base (sheartest.base_slip)
+    z_lo, z_hi = base_layer_bounds(spec)
+    add(f"variable inlayer atom (z>={num(z_lo)})*(z<{num(z_hi)})*((x*x+y*y)>1e-18)")
+    add("variable spinl atom v_inlayer*(x*vy-y*vx)/(x*x+y*y+1e-18)")
+    add("compute nlayer all reduce update_on_run_end yes sum v_inlayer")
+    add("compute spinsum all reduce update_on_run_end yes sum v_spinl")
+    add("variable bspin equal c_spinsum/(c_nlayer+1e-30)")
     # -- head motion: vertical velocity and rotation from variables
     add("variable ftgt equal 0.0")
     add("variable vlim equal 0.0")
@@ -381,7 +389,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
         add(f"variable ftgt equal {num(stress * area, 'procedure stress')}")
         add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
         add(f"fix rec all ave/time 1 {integer(per)} {integer(per)} v_fup v_tres file {fname}")
-        add(f'fix recz all print {integer(per)} "${{stp}} ${{zh}}" file z_{fname} screen no')
+        add(f'fix recz all print {integer(per)} "${{stp}} ${{zh}} ${{bspin}}" file z_{fname} screen no')
         add(f'print "CALIBRAX begin {integer(j)} ${{stp}}"')
         add(f"run {integer(nsamples * per)}")
         add("unfix rec")

@@ -164,18 +164,19 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
     for j, (kind, target, nsamples, fname) in enumerate(plan.steps):
         try:
             ft = _load(workdir / fname, 3)
-            zt = _load(workdir / f"z_{fname}", 2)
+            zt = _load(workdir / f"z_{fname}", 3)
         except (OSError, ValueError) as exc:
             raise SimulationFailed(f"cannot read LIGGGHTS output {fname}: {exc}", tail, kind="crash") from exc
         s0 = begin.get(j)
         if s0 is None or ft.shape[0] < nsamples:
             raise SimulationFailed(f"step {j} ({kind}) has {ft.shape[0]} of {nsamples} samples", tail, kind="crash")
         ft = ft[:nsamples]
-        z_by_step = {int(round(a)): b for a, b in zt}
+        z_by_step = {int(round(a)): (b, c) for a, b, c in zt}
         step_no = ft[:, 0].astype(np.int64)
         if not np.all(np.isfinite(ft)):
             raise SimulationFailed(f"NaN in the head force or torque during step {j} ({kind})", tail, kind="nan")
-        z = np.asarray([z_by_step.get(int(k), math.nan) for k in step_no])
+        z = np.asarray([z_by_step.get(int(k), (math.nan, math.nan))[0] for k in step_no])
+        spin = np.asarray([z_by_step.get(int(k), (math.nan, math.nan))[1] for k in step_no])
         if np.any(np.isnan(z)):
             raise SimulationFailed(f"head height missing or NaN during step {j} ({kind})", tail, kind="nan")
         time_s = step_no * plan.dt
@@ -183,7 +184,7 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
         tau = np.asarray(shear_stress_from_torque(ft[:, 2], radius), dtype=float)
         sigma = ft[:, 1] / plan.head_area
         steps.append(StepRecord(kind=kind, target_stress=target, time=time_s, rotation=rotation, shear_stress=tau,
-                                normal_stress=sigma, bed_height=z))
+                                normal_stress=sigma, bed_height=z, base_spin=spin))
     n_pre = sum(1 for s in plan.steps if s[0] == "preshear")
     bulk_list = [bulk.get(k, math.nan) for k in range(n_pre)]
     return steps, bulk_list, info

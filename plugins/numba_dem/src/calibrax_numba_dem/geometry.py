@@ -226,7 +226,8 @@ def wall_forces(i, x, v, w, rad, mass, params, head, dirs, wid, whist, wrhist):
             # torque about z is (c × F)_z + M_roll,z = (p × F)_z + T_z (T: torque on i)
             fh -= cfz
             th += px * cfy - py * cfx + ctz
-    # ---- ribs on the base
+    # ---- ribs on the base, from the hub radius to the wall (not from the axis, where every rib's
+    # inner edge would meet and wedge a particle among them all)
     nribs = int(params[P_NRIBS])
     hr = params[P_RIB_H]
     if nribs > 0 and pz < hr + r:
@@ -235,7 +236,7 @@ def wall_forces(i, x, v, w, rad, mass, params, head, dirs, wid, whist, wrhist):
             sa = dirs[nblades + k, 1]
             if abs(py * ca - px * sa) >= r:
                 continue
-            qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, 0.0, params[P_RC], 0.0, hr)
+            qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, params[P_HUB_R], params[P_RC], 0.0, hr)
             if not (dist < r and dist > 0.0):
                 continue
             s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_BLADE0 + nblades + k, (px - qx) / dist,

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import GRAVITY, ShearCellSpec, StepRecord, shear_stress_from_torque
+from calibrax.core.sheartest import (GRAVITY, ShearCellSpec, StepRecord, base_layer_bounds, layer_spin,
+                                     shear_stress_from_torque)
 from calibrax.errors import SimulationFailed
 
 from .contact import beta_from_restitution, effective_moduli
@@ -263,7 +264,8 @@ class ShearTestDriver:
         phi0 = h[H_PHI]
         per = max(1, int(round(spec.numerics.sample_interval / self.dt)))
         nsamples = max(2, int(math.ceil(rotation / rate / (per * self.dt))))
-        rec = np.empty((5, nsamples))
+        rec = np.empty((6, nsamples))
+        z_low, z_high = base_layer_bounds(spec)
         s.take_accumulators()
         for k in range(nsamples):
             s.advance(per)
@@ -273,12 +275,13 @@ class ShearTestDriver:
             rec[2, k] = float(shear_stress_from_torque(torque, spec.geometry.head_radius))
             rec[3, k] = f / self.area
             rec[4, k] = h[H_Z]
+            rec[5, k] = layer_spin(s.x, s.v, z_low, z_high)
             if k % 20 == 0:
                 self._check(kind)
         self._check(kind)
         h[H_OMEGA] = 0.0
         step = StepRecord(kind=kind, target_stress=stress, time=rec[0], rotation=rec[1], shear_stress=rec[2],
-                          normal_stress=rec[3], bed_height=rec[4])
+                          normal_stress=rec[3], bed_height=rec[4], base_spin=rec[5])
         err = float(np.mean(rec[3]) / stress - 1.0)
         self.sigma_errors.append(err)
         self.log(f"t={self.time:.5f} s {kind} at {stress:.0f} Pa: mean σ {np.mean(rec[3]):.0f} Pa "

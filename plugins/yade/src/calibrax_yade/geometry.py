@@ -5,7 +5,7 @@ meshes (``calibrax_liggghts.mesh``), so that the three backends simulate the sam
 
 * base: the plane z = 0 as one facet covering the vessel (particles' μs, μr by default);
 * ribs (optional): ``base_ribs`` vertical radial plates of height ``rib_height`` at angles 2πk/n,
-  from 0.05 R off the axis out to the vessel wall (base friction);
+  from the head's hub radius out to the vessel wall (base friction);
 * vessel: the lateral wall, a polygonal cylinder of radius D/2 (vertices on the circle),
   friction ``geometry.wall_friction``;
 * head, in its own frame: a disc of radius ``head_radius`` at z = 0 (its lower face is the head's
@@ -63,12 +63,14 @@ def base_mesh(vessel_radius: float, particle_radius: float) -> np.ndarray:
     return np.asarray([[[rad * math.cos(a), rad * math.sin(a), 0.0] for a in ang]])
 
 
-def ribs_mesh(vessel_radius: float, count: int, height: float, particle_radius: float) -> np.ndarray:
-    """``count`` radial ribs of height ``height`` on the base (empty array when count = 0)."""
+def ribs_mesh(inner_radius: float, vessel_radius: float, count: int, height: float) -> np.ndarray:
+    """``count`` radial ribs of height ``height`` on the base, from ``inner_radius`` (the head's hub
+    radius, as numba_dem: ribs meeting at the axis wedge a particle among all their edges at once)
+    to the wall (empty array when count = 0)."""
     if count <= 0:
         return np.zeros((0, 3, 3))
-    s0 = 0.05 * particle_radius
-    return np.concatenate([_plate(2.0 * math.pi * k / count, s0, vessel_radius, 0.0, height) for k in range(count)])
+    return np.concatenate([_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
+                           for k in range(count)])
 
 
 def vessel_mesh(vessel_radius: float, z_top: float, particle_radius: float, z_bottom: float = 0.0) -> np.ndarray:

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.sheartest import (GRAVITY, Provenance, ShearCellSpec, ShearTestResult, StepRecord,
-                                     shear_stress_from_torque)
+                                     base_layer_bounds, shear_stress_from_torque)
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
@@ -95,9 +95,9 @@ def build_params(spec: ShearCellSpec) -> dict:
         "friction": m.sliding_friction, "wall_friction": g.wall_friction, "base_friction": mu_b,
         "head_friction": spec.effective_head_friction(),
         "vessel_radius": rc, "head_radius": g.head_radius, "blade_height": g.blade_height,
-        "fill_height": g.fill_height,
+        "fill_height": g.fill_height, "base_layer": list(base_layer_bounds(spec)),
         "vessel_facets": _flat(vessel_mesh(rc, z_top, r_ref)), "base_facets": _flat(base_mesh(rc, r_ref)),
-        "rib_facets": _flat(ribs_mesh(rc, g.base_ribs, g.rib_height, r_ref)),
+        "rib_facets": _flat(ribs_mesh(g.hub_radius, rc, g.base_ribs, g.rib_height)),
         "head_disc_facets": _flat(disc), "head_blade_facets": _flat(blades),
         "radii": [float(r) for r in radii], "positions": _flat(x), "velocities": _flat(v),
         "preshear_stress": p.preshear_stress, "shear_stresses": [float(s) for s in p.shear_stresses],
@@ -206,7 +206,8 @@ class YadeSimulator:
                     kind=str(rec["kind"]), target_stress=float(rec["target_stress"]), time=_array(rec, "time", n),
                     rotation=_array(rec, "rotation", n),
                     shear_stress=np.asarray(shear_stress_from_torque(torque, spec.geometry.head_radius), dtype=float),
-                    normal_stress=force / area, bed_height=_array(rec, "head_height", n)))
+                    normal_stress=force / area, bed_height=_array(rec, "head_height", n),
+                    base_spin=_array(rec, "base_spin", n) if "base_spin" in rec else np.empty(0)))
             bulk = [float(b) for b in out["bulk_density"]]
             if len([s for s in steps if s.kind == "shear"]) != len(spec.procedure.shear_stresses):
                 raise ValueError("missing shear steps")

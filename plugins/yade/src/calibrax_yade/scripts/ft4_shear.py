@@ -404,6 +404,21 @@ def settle(stress):
         % (O.time, stress, back, f / AREA, torque))
 
 
+def base_spin():
+    """Mean angular velocity about the axis (rad/s) of the particles whose centre lies in the layer
+    just above the base or the ribs' tops (calibrax.core.sheartest.base_layer_bounds); NaN if empty."""
+    z_lo, z_hi = P["base_layer"]
+    total, count = 0.0, 0
+    for i in sphere_ids:
+        st = O.bodies[i].state
+        x, y, z = st.pos[0], st.pos[1], st.pos[2]
+        rho2 = x * x + y * y
+        if z_lo <= z < z_hi and rho2 > 1e-18:
+            total += (x * st.vel[1] - y * st.vel[0]) / rho2
+            count += 1
+    return total / count if count else float("nan")
+
+
 def rotate(kind, stress, rotation):
     set_servo(stress, P["shear_speed_limit"])
     S["omega"] = RATE
@@ -411,7 +426,7 @@ def rotate(kind, stress, rotation):
     per = NSUB * max(1, int(round(P["sample_interval"] / DT / NSUB)))
     nsamples = max(2, int(math.ceil(rotation / RATE / (per * DT))))
     rec = {"kind": kind, "target_stress": stress, "time": [], "rotation": [], "force": [], "torque": [],
-           "head_height": [], "wall_torque": []}
+           "head_height": [], "wall_torque": [], "base_spin": []}
     take_accumulators()
     for k in range(nsamples):
         run_steps(per)
@@ -422,6 +437,7 @@ def rotate(kind, stress, rotation):
         rec["torque"].append(torque)
         rec["head_height"].append(head_z())
         rec["wall_torque"].append(utils.sumTorques(wall_ids, (0, 0, 1), (0, 0, 0)))
+        rec["base_spin"].append(base_spin())
         if k % 20 == 0:
             check(kind)
     check(kind)
