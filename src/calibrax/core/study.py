@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrax.core.executor import SimulationTask
+from calibrax.core.features import result_features
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
 from calibrax.core.store import CampaignStore
 from calibrax.core.yieldlocus import YieldLocus
@@ -66,6 +67,13 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
     return {"sigma_sd": mean(sd), "sigma_offset_at_peak": mean(offset), "steady_friction": mean(friction)}
 
 
+def _robust_features(result: ShearTestResult) -> dict[str, float]:
+    """The test's mean peak τ/σ_measured and mean preshear steady τ/σ (calibrax.core.features)."""
+    f = result_features(result)
+    mean = lambda prefix: float(np.nanmean([v for k, v in f.items() if k.startswith(prefix)]))  # noqa: E731
+    return {"peak_ratio": mean("peak_ratio_"), "preshear_ratio": mean("preshear_ratio_")}
+
+
 @dataclass
 class CaseOutcome:
     """What one case gave: per-seed results (None where a seed failed) and the statistics."""
@@ -101,8 +109,11 @@ class CaseOutcome:
         """C and AIF (pooled fit) with their regression s.e., the seed-to-seed s.d., and the
         uncertainty of the estimate u = max(regression s.e., s.d./√n); mean peaks per step (Pa),
         bulk density after the first preshear (kg/m³) with its seed s.d. and u = s.d./√n; the
-        seeds' mean :func:`shear_window_diagnostics` and ``base_load`` (steady τ over what a flat base can
-        hold, :func:`~calibrax.core.sheartest.steady_base_load`), each with ``_sd``, their seed s.d."""
+        seeds' mean :func:`shear_window_diagnostics`, ``base_load`` (steady τ over what a flat base can
+        hold, :func:`~calibrax.core.sheartest.steady_base_load`), ``base_slip`` (the bottom layer's
+        spin over the head's rate, :func:`~calibrax.core.sheartest.base_slip`) and the robust
+        features ``peak_ratio`` and ``preshear_ratio`` (means over the steps, see
+        :mod:`calibrax.core.features`), each with ``_sd``, their seed s.d."""
         locus = self.locus()
         loci = self.seed_loci()
         n = len(loci)
@@ -123,8 +134,10 @@ class CaseOutcome:
             "particles": float(self.good[0].provenance.particle_count),
         })
         out["bulk_density_u"] = out["bulk_density_sd"] / math.sqrt(len(self.good))
-        windows = [dict(shear_window_diagnostics(r),
-                        base_load=steady_base_load(self.case.spec, r.steps, r.bulk_density)) for r in self.good]
+        windows = [dict(shear_window_diagnostics(r), **_robust_features(r),
+                        base_load=steady_base_load(self.case.spec, r.steps, r.bulk_density),
+                        base_slip=float(np.nanmean(r.base_slip)) if np.any(np.isfinite(r.base_slip)) else math.nan)
+                   for r in self.good]
         for key in windows[0]:
             values = [w[key] for w in windows]
             out[key] = float(np.nanmean(values))

@@ -16,7 +16,7 @@ from matplotlib.patches import Ellipse  # noqa: E402
 
 from calibrax.core.convergence import DENSITY_TOLERANCE, Verdict, inertial_numbers  # noqa: E402
 from calibrax.core.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
-from calibrax.core.sheartest import BASE_SLIP_FRACTION  # noqa: E402
+from calibrax.core.sheartest import BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION  # noqa: E402
 from calibrax.core.study import CaseOutcome  # noqa: E402
 from calibrax.report.figures import _save  # noqa: E402
 
@@ -99,9 +99,13 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
              "Base load: steady τ over the most a flat base can hold the bed against (μ_base [σ R_v/R_h + "
              "ρ g H (R_v/R_h)³], uniform pressure, frictionless lateral wall; – with ribs or wall friction): "
              f"at ≥ {BASE_SLIP_FRACTION:.0%} the bed slides on the base and τ measures the base's friction, and "
-             "anything else that resists the turning bed (a lateral wall that is not smooth) adds to τ.", "",
-             "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ | base load |",
-             "|---|---|---|---|---|---|"]
+             "anything else that resists the turning bed (a lateral wall that is not smooth) adds to τ. "
+             "Base slip: the bottom layer's spin over the head's rate, measured on every base "
+             f"(≥ {BASE_SPIN_SLIP_FRACTION:.0%}: the bed slid on it). Peak τ/σ: τ_peak over the σ measured at "
+             "the peak, and preshear τ/σ, the robust features (mean over steps).", "",
+             "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ | peak τ/σ | "
+             "preshear τ/σ | base load | base slip |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for o in outcomes:
         s = o.summary()
 
@@ -113,7 +117,8 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
 
         lines.append(f"| {o.case.label} | {o.case.backend} | {cell('sigma_sd', 100, '.1f', ' %')} | "
                      f"{cell('sigma_offset_at_peak', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} | "
-                     f"{cell('base_load', 100, '.0f', ' %')} |")
+                     f"{cell('peak_ratio', 1, '.3f', '')} | {cell('preshear_ratio', 1, '.3f', '')} | "
+                     f"{cell('base_load', 100, '.0f', ' %')} | {cell('base_slip', 100, '.0f', ' %')} |")
     return lines + [""]
 
 
@@ -258,6 +263,7 @@ def converge_markdown(outcomes: list[CaseOutcome], results: list[Verdict]) -> st
                          f"{_fmt(spec.particles_per_diameter if spec else math.nan, '.1f')} | "
                          f"{_fmt(spec.time_step if spec else math.nan, '.3g')} | {inertial} | "
                          f"{'yes' if within else 'no'}{' (finest)' if value == v.finest else ''} |")
+    lines += ["", *servo_table(outcomes)]
     for o in outcomes:
         for reason in o.failures:
             lines.append(f"\nFAILED: {o.case.label}: {reason}")
