@@ -76,3 +76,60 @@ def test_bad_experiment_files(tmp_path, text, match):
     (tmp_path / "bad.csv").write_text(text)
     with pytest.raises(ExperimentError, match=match):
         load_experiment(tmp_path / "bad.csv")
+
+
+FULL_POINTS = """# a replicated FT4 shear test with what else the instrument logs
+normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3
+9000,5200,1,9150,15020,8800,1452
+6000,3900,1,6080,14990,8700,
+9000,5100,2,9110,15010,8650,1440
+6000,3850,2,,15000,8600,
+"""
+
+
+def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
+    from calibrax.core.store import _read_experiment, _write_experiment
+    import h5py
+
+    (tmp_path / "p.csv").write_text(FULL_POINTS)
+    (tmp_path / "c.csv").write_text("replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n"
+                                   "1,9000,0.01,2000\n1,9000,0.02,5200\n1,9000,0.03,4800\n")
+    (tmp_path / "e.yaml").write_text("name: full\nsource: bench FT4, 2026-11-01\npoints: p.csv\ncurves: c.csv\n"
+                                     "wall_friction_angle_deg: 11.5\n")
+    exp = load_experiment(tmp_path / "e.yaml")
+    assert exp.measured_normal_stress[0] == 9150 and math.isnan(exp.measured_normal_stress[3])
+    np.testing.assert_allclose(exp.bulk_density, [1452, 1452, 1440, 1440])  # spread to the replicate's rows
+    assert exp.preshear_tau[2] == 8650 and exp.wall_friction_angle_deg == 11.5
+    assert (1, 9000.0) in exp.curves
+    with h5py.File(tmp_path / "s.h5", "w") as f:
+        _write_experiment(f.create_group("experiment"), exp)
+    with h5py.File(tmp_path / "s.h5", "r") as f:
+        back = _read_experiment(f["experiment"])
+    np.testing.assert_array_equal(back.bulk_density, exp.bulk_density)
+    np.testing.assert_array_equal(back.measured_normal_stress, exp.measured_normal_stress)
+    assert back.wall_friction_angle_deg == 11.5
+    # one density for every replicate from the header instead
+    (tmp_path / "e2.yaml").write_text("points: p.csv\nbulk_density_kg_m3: 1500\n")
+    assert np.all(load_experiment(tmp_path / "e2.yaml").bulk_density == 1500)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda t: t.replace("9000,5200,1", "9000,-5200,1"), "peak_shear_stress_pa must be ≥ 0"),
+    (lambda t: t.replace(",1452", ",-3"), "bulk_density_kg_m3 must be > 0"),
+])
+def test_physically_impossible_points_are_refused(tmp_path, change, message):
+    (tmp_path / "p.csv").write_text(change(FULL_POINTS))
+    with pytest.raises(ExperimentError, match=message):
+        load_experiment(tmp_path / "p.csv")
+
+
+@pytest.mark.parametrize("header, key", [
+    ("points: p.csv\nwall_friction_angle_deg: 95\n", "wall_friction_angle_deg"),
+    ("points: p.csv\nbulk_density_kg_m3: heavy\n", "bulk_density_kg_m3"),
+    ("points: p.csv\nsource: [1, 2]\n", "source"),
+])
+def test_bad_header_values_name_the_key(tmp_path, header, key):
+    (tmp_path / "p.csv").write_text(FULL_POINTS)
+    (tmp_path / "e.yaml").write_text(header)
+    with pytest.raises(ExperimentError, match=key):
+        load_experiment(tmp_path / "e.yaml")

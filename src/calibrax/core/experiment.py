@@ -1,10 +1,17 @@
-"""Measured data: yield-locus points with replicates, optional τ curves, optional header.
+"""Measured data: yield-locus points with replicates, and what else an FT4 user can measure.
 
 Files (all UTF-8, lines starting with ``#`` are comments — use them to say where data came from):
 
 * points CSV, required columns ``normal_stress_pa, peak_shear_stress_pa, replicate`` (replicate is
-  an integer id of the full shear test the point belongs to), optional columns
-  ``preshear_normal_stress_pa, preshear_shear_stress_pa``;
+  an integer id of the full shear test the point belongs to); optional columns:
+
+  - ``measured_normal_stress_pa``: σ the instrument measured at the peak (an FT4 logs it; the
+    target σ stands in where it is missing);
+  - ``preshear_normal_stress_pa, preshear_shear_stress_pa``: steady σ and τ of the preshear before
+    the point's shear step;
+  - ``bulk_density_kg_m3``: the replicate's bulk density at the preshear stress (the FT4
+    compressibility test at that stress), on any row of the replicate;
+
 * curves CSV (optional), columns ``replicate, normal_stress_pa, rotation_rad, shear_stress_pa``:
   the τ curve of each shear step;
 * header YAML (optional) naming them, relative to itself::
@@ -12,13 +19,17 @@ Files (all UTF-8, lines starting with ``#`` are comments — use them to say whe
       name: B4C
       source: where the data came from (instrument, date, or the pseudo-experiment's backend and parameters)
       points: b4c-points.csv
-      curves: b4c-curves.csv      # optional
-      preshear_stress_pa: 15000   # optional
+      curves: b4c-curves.csv          # optional
+      preshear_stress_pa: 15000       # optional
+      bulk_density_kg_m3: 1470        # optional: one density for every replicate (else the column)
+      wall_friction_angle_deg: 11.5   # optional: the FT4 wall friction test against the vessel's material
+      cell: {preset: tiny}            # optional: the cell it was measured in, for the record
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,9 +41,11 @@ from calibrax.core.yieldlocus import YieldLocus
 from calibrax.errors import ExperimentError
 
 POINT_COLUMNS = ("normal_stress_pa", "peak_shear_stress_pa", "replicate")
-OPTIONAL_POINT_COLUMNS = ("preshear_normal_stress_pa", "preshear_shear_stress_pa")
+OPTIONAL_POINT_COLUMNS = ("measured_normal_stress_pa", "preshear_normal_stress_pa", "preshear_shear_stress_pa",
+                          "bulk_density_kg_m3")
 CURVE_COLUMNS = ("replicate", "normal_stress_pa", "rotation_rad", "shear_stress_pa")
-HEADER_KEYS = {"name", "source", "points", "curves", "preshear_stress_pa", "material", "cell"}
+HEADER_KEYS = {"name", "source", "points", "curves", "preshear_stress_pa", "material", "cell", "bulk_density_kg_m3",
+               "wall_friction_angle_deg"}
 
 
 @dataclass(frozen=True)
@@ -48,6 +61,14 @@ class Experiment:
         preshear_shear_stress: steady τ of the preshear per replicate (NaN if unknown), Pa.
         curves: {(replicate, σ in Pa): (rotation rad shape (m,), τ Pa shape (m,))}.
         source: the provenance text of the data.
+        files: the files it was read from.
+        measured_normal_stress: σ measured at each peak, shape (n,), Pa (NaN where not recorded).
+        preshear_sigma, preshear_tau: steady σ and τ of the preshear before each point, shape (n,),
+            Pa (NaN where not recorded).
+        bulk_density: the point's replicate's bulk density at the preshear stress, shape (n,),
+            kg/m³ (NaN where not measured).
+        wall_friction_angle_deg: the FT4 wall friction angle against the vessel's material,
+            degrees (NaN where not measured).
     """
 
     name: str
@@ -59,6 +80,17 @@ class Experiment:
     curves: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     source: str = ""
     files: tuple[str, ...] = ()
+    measured_normal_stress: np.ndarray | None = None
+    preshear_sigma: np.ndarray | None = None
+    preshear_tau: np.ndarray | None = None
+    bulk_density: np.ndarray | None = None
+    wall_friction_angle_deg: float = float("nan")
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.normal_stress).size
+        for key in ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density"):
+            value = getattr(self, key)
+            object.__setattr__(self, key, np.full(n, np.nan) if value is None else np.asarray(value, dtype=float))
 
     @property
     def replicates(self) -> list[int]:
@@ -137,10 +169,20 @@ def load_points(path: Path, name: str | None = None) -> Experiment:
         raise ExperimentError(str(path), "normal_stress_pa must be > 0 in every row")
     if np.any(rep != np.round(rep)):
         raise ExperimentError(str(path), "replicate must be an integer id in every row")
+    if np.any(tau < 0):
+        row = int(np.argmax(tau < 0)) + 2
+        raise ExperimentError(str(path), f"peak_shear_stress_pa must be ≥ 0 (a shear tester reports the magnitude "
+                              f"of the peak), got {tau[tau < 0][0]:g} in data row {row - 1}")
     if np.unique(sigma).size < 2:
         raise ExperimentError(str(path), "needs points at two or more distinct normal stresses for a yield locus")
+    for col in ("measured_normal_stress_pa", "preshear_normal_stress_pa", "preshear_shear_stress_pa",
+                "bulk_density_kg_m3"):
+        values = cols.get(col)
+        if values is not None and np.any(values[np.isfinite(values)] <= 0):
+            raise ExperimentError(str(path), f"{col} must be > 0 where given")
     pre_sigma = cols.get("preshear_normal_stress_pa")
     pre_tau = cols.get("preshear_shear_stress_pa")
+    nan = np.full(sigma.size, np.nan)
     source = "\n".join(ln.lstrip("# ").rstrip() for ln in path.read_text(encoding="utf-8").splitlines()
                        if ln.lstrip().startswith("#"))
     return Experiment(
@@ -152,7 +194,22 @@ def load_points(path: Path, name: str | None = None) -> Experiment:
         preshear_shear_stress=float(np.nanmean(pre_tau)) if pre_tau is not None and np.any(np.isfinite(pre_tau)) else float("nan"),
         source=source,
         files=(str(path),),
+        measured_normal_stress=cols.get("measured_normal_stress_pa", nan),
+        preshear_sigma=pre_sigma if pre_sigma is not None else nan,
+        preshear_tau=pre_tau if pre_tau is not None else nan,
+        bulk_density=_per_replicate(cols.get("bulk_density_kg_m3", nan), rep),
     )
+
+
+def _per_replicate(values: np.ndarray, replicate: np.ndarray) -> np.ndarray:
+    """Spread each replicate's value (given on any of its rows) to all its rows."""
+    out = np.asarray(values, dtype=float).copy()
+    for r in np.unique(replicate):
+        m = replicate == r
+        given = out[m][np.isfinite(out[m])]
+        if given.size:
+            out[m] = float(np.mean(given))
+    return out
 
 
 def load_curves(path: Path) -> dict[tuple[int, float], tuple[np.ndarray, np.ndarray]]:
@@ -194,7 +251,26 @@ def load_experiment(path: str | Path) -> Experiment:
     pre = header.get("preshear_stress_pa", exp.preshear_stress)
     if isinstance(pre, bool) or not isinstance(pre, (int, float)):
         raise ExperimentError(f"{path}: preshear_stress_pa", f"must be a number, got {pre!r}")
+    if "source" in header and not isinstance(header["source"], str):
+        raise ExperimentError(f"{path}: source", f"must be text, got {header['source']!r}")
+    if "name" in header and not isinstance(header["name"], str):
+        raise ExperimentError(f"{path}: name", f"must be text, got {header['name']!r}")
+    density = exp.bulk_density
+    if header.get("bulk_density_kg_m3") is not None:
+        density = np.full(exp.normal_stress.size, _positive_number(path, header, "bulk_density_kg_m3"))
+    wall_angle = float("nan")
+    if header.get("wall_friction_angle_deg") is not None:
+        wall_angle = _positive_number(path, header, "wall_friction_angle_deg")
+        if wall_angle >= 90:
+            raise ExperimentError(f"{path}: wall_friction_angle_deg", f"must lie in (0, 90) degrees, got {wall_angle}")
     source = str(header.get("source") or exp.source)
     files = exp.files + ((str(path.parent / header["curves"]),) if header.get("curves") else ()) + (str(path),)
-    return Experiment(exp.name, exp.normal_stress, exp.peak_shear_stress, exp.replicate, float(pre),
-                      exp.preshear_shear_stress, curves, source, files)
+    return dataclasses.replace(exp, preshear_stress=float(pre), curves=curves, source=source, files=files,
+                               bulk_density=density, wall_friction_angle_deg=wall_angle)
+
+
+def _positive_number(path: Path, header: dict, key: str) -> float:
+    value = header[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ExperimentError(f"{path}: {key}", f"must be a finite number > 0, got {value!r}")
+    return float(value)
