@@ -139,7 +139,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if summary.best_id is not None:
         params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
         print(f"best: point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
-              f"{summary.best_uncertainty:.2g}")
+              f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
     return 0
 
 
@@ -179,7 +179,7 @@ def _cmd_status(args: argparse.Namespace) -> int:
     if summary.best_id is not None:
         params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
         print(f"best (*): point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
-              f"{summary.best_uncertainty:.2g}")
+              f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
     return 0
 
 

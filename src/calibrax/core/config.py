@@ -178,6 +178,10 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
         elif typ is list:
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise ConfigError(f"{key}.{opt}", f"must be a list of text lines, got {value!r}")
+        elif typ is dict:
+            if not isinstance(value, dict) or not value:
+                raise ConfigError(f"{key}.{opt}", f"must be a mapping of names to numbers, got {value!r}")
+            options[opt] = {str(k): _number(f"{key}.{opt}.{k}", v) for k, v in value.items()}
     return name, options
 
 

@@ -18,6 +18,20 @@ class MetricValue:
     uncertainty: float
     features: dict[str, float] = field(default_factory=dict)
 
+    @property
+    def threshold(self) -> float:
+        """The distance the true parameters stay below at :attr:`threshold_rate` (NaN where the metric
+        states none): what "within the noise" means for this metric (see calibrax.core.threshold)."""
+        return float(self.features.get("noise_threshold", float("nan")))
+
+    @property
+    def threshold_rate(self) -> float:
+        return float(self.features.get("noise_threshold_rate", float("nan")))
+
+    def within_noise(self) -> bool:
+        """Whether the distance lies within the metric's noise threshold."""
+        return bool(self.value <= self.threshold)
+
 
 @runtime_checkable
 class Metric(Protocol):

@@ -6,6 +6,7 @@ import html
 import math
 from pathlib import Path
 
+from calibrax.core.campaign import noise_text
 from calibrax.report import figures
 from calibrax.report.data import CampaignData, load_campaign
 
@@ -43,7 +44,9 @@ def _best_line(data: CampaignData) -> str:
     if b is None:
         return "No point has finished yet."
     params = ", ".join(f"{figures.label(n)} = {figures.scaled(n, v):.4g}" for n, v in b.record.params().items())
-    return (f"Best point {b.id}: {params}; distance {b.distance:.3g} ± {b.record.metric.uncertainty:.2g}; "
+    m = b.record.metric
+    return (f"Best point {b.id}: {params}; distance {b.distance:.3g} ± {m.uncertainty:.2g}, "
+            f"{noise_text(b.distance, m.threshold, m.threshold_rate)}; "
             f"C = {b.cohesion:.0f} ± {b.cohesion_stderr:.0f} Pa, AIF = {b.aif:.1f} ± {b.aif_stderr:.1f}°.")
 
 

@@ -64,6 +64,16 @@ class CampaignData:
         return min(self.done, key=lambda p: p.distance, default=None)
 
     @property
+    def noise_threshold(self) -> tuple[float, float]:
+        """(threshold, rate): the distance the true parameters stay below at that rate, as the
+        campaign's metric stated it (the best point's; NaN where the metric states none, and for
+        stores written before metrics stated one)."""
+        best = self.best
+        if best is None or best.record.metric is None:
+            return math.nan, math.nan
+        return best.record.metric.threshold, best.record.metric.threshold_rate
+
+    @property
     def failures(self) -> list[tuple[PointView, int, str, str, str]]:
         """(point, sim index, kind, reason, log tail) of every failed simulation."""
         return [(p, s.index, s.kind, s.reason, s.log_tail) for p in self.points for s in p.record.sims

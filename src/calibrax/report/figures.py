@@ -155,8 +155,8 @@ def shear_curves(data: CampaignData, folder: Path) -> list[str]:
 def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[list[str], str]:
     """Predicted distance and its standard deviation over the first two parameters (the others at
     the best point), with every evaluated point and the last batch's proposals; returns the file
-    names and an identifiability statement (the region predicted within the experimental noise,
-    d ≤ 1 for the c_aif metric, whose unit is the experiment's replicate spread)."""
+    names and an identifiability statement (the region predicted within the noise: below the
+    metric's stated noise threshold, which the true parameters stay below 95 % of the time)."""
     done = data.done
     if len(done) < 3 or data.space.dim < 1:
         return [], "too few finished points to fit a surrogate"
@@ -173,8 +173,11 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     mean, std = model.predict(x)
     p0 = data.space.parameters[0]
     nat0 = scaled(p0.name, p0.from_unit(u))
-    inside = mean <= 1.0
-    statement = _identifiability(data, x, inside, mean)
+    limit, rate = data.noise_threshold
+    if not math.isfinite(limit):
+        limit, rate = 1.0, math.nan
+    inside = mean <= limit
+    statement = _identifiability(data, x, inside, mean, limit, rate)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
     last_batch = max(p.record.batch for p in data.points)
     if d2 == 2:
@@ -184,7 +187,7 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
             cs = ax.contourf(nat0, nat1, z.reshape(grid, grid), levels=20, cmap="viridis")
             fig.colorbar(cs, ax=ax)
             if np.any(inside):
-                ax.contour(nat0, nat1, mean.reshape(grid, grid), levels=[1.0], colors="w", linewidths=1.5)
+                ax.contour(nat0, nat1, mean.reshape(grid, grid), levels=[limit], colors="w", linewidths=1.5)
             for p in data.points:
                 xy = (scaled(p0.name, p.record.natural[0]), scaled(p1.name, p.record.natural[1]))
                 if not math.isfinite(p.distance):
@@ -203,7 +206,7 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
                 ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel(label(p0.name))
             ax.set_ylabel(label(p1.name))
-            ax.set_title(f"{title} (white line: d = 1; ★ last batch; ✕ failed)", fontsize=9)
+            ax.set_title(f"{title} (white line: noise threshold d = {limit:.2g}; ★ last batch; ✕ failed)", fontsize=9)
     else:
         axes[0].plot(nat0, mean, "k-")
         axes[0].fill_between(nat0, mean - 2 * std, mean + 2 * std, alpha=0.3)
@@ -215,9 +218,13 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     return _save(fig, folder, "surrogate"), statement
 
 
-def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean: np.ndarray) -> str:
+def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean: np.ndarray, limit: float,
+                     rate: float) -> str:
+    within = (f"within the noise (d ≤ {limit:.3g}, the metric's threshold that the true parameters stay below "
+              f"{rate:.0%} of the time)" if math.isfinite(rate) else f"within d ≤ {limit:.3g} (this metric states "
+              "no noise threshold)")
     if not np.any(inside):
-        return (f"No parameter set is predicted within the experimental noise (d ≤ 1); the lowest predicted "
+        return (f"No parameter set is predicted {within}; the lowest predicted "
                 f"distance on the map is {mean.min():.2g}. The model cannot reach the experiment in this box, "
                 "or more simulations are needed.")
     nat = data.space.from_unit(x[inside])
@@ -226,7 +233,7 @@ def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean
         lo, hi = scaled(p.name, nat[:, j].min()), scaled(p.name, nat[:, j].max())
         parts.append(f"{label(p.name)} from {lo:.3g} to {hi:.3g}")
     share = 100.0 * inside.mean()
-    return ("Parameters predicted within the experimental noise (d ≤ 1): " + "; ".join(parts) +
+    return (f"Parameters predicted {within}: " + "; ".join(parts) +
             f" ({share:.0f} % of the searched box). A long, thin region is a valley of near-equivalent couples: "
             "the shear test alone cannot tell them apart.")
 

@@ -1,17 +1,31 @@
-"""Builtin metric ``c_aif``: the reference paper's distance in the (C, AIF) plane."""
+"""Builtin metrics: ``c_aif`` (the reference paper's distance in the (C, AIF) plane) and ``robust``
+(a distance on the features that rise above a coarse cell's seed noise).
+
+Each states its noise threshold — the distance the true parameters stay below 95 % of the time —
+in :attr:`MetricValue.features` (``noise_threshold``, ``noise_threshold_rate``), built by
+:mod:`calibrax.core.threshold` from how the distance is made; status, logs and reports say
+"within the noise" against it, never against d ≤ 1.
+"""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from calibrax.core.experiment import Experiment
+from calibrax.core.features import experiment_features, result_features, step_suffix, summarise
 from calibrax.core.metric import MetricValue
 from calibrax.core.sheartest import ShearTestResult
+from calibrax.core.threshold import DEFAULT_RATE, noise_threshold, welch_dof
 from calibrax.core.yieldlocus import YieldLocus
 from calibrax.errors import ConfigError
 from calibrax.plugins.hookspecs import hookimpl
+
+
+def _threshold_features(value: float, rate: float, how: str) -> dict[str, Any]:
+    return {"noise_threshold": value, "noise_threshold_rate": rate, "noise_threshold_how": how}
 
 
 class CAifMetric:
@@ -21,6 +35,12 @@ class CAifMetric:
     ``scale_cohesion_pa`` and ``scale_aif_deg``. The simulated locus pools the peaks of every
     seed at the point (fitted against the target σ, as the paper, or ``against: measured``). The
     uncertainty is the regression errors of C and AIF propagated to d (delta method).
+
+    Noise threshold: at the true parameters C_sim − C_exp has the variance s_C² (1/n_exp + 1/n_sim)
+    when a seed scatters as much as a replicate (as in a pseudo-experiment); s_C is estimated from
+    n_exp replicates (n_exp − 1 degrees of freedom), and C and AIF of one locus are correlated by
+    the regression itself, ρ = −mean(σ)/√mean(σ²) (≈ −0.99 over 6–9 kPa). With 3 replicates that
+    makes the 95 % threshold about 7: a c_aif distance from three replicates cannot tell much.
     """
 
     name = "c_aif"
@@ -48,6 +68,24 @@ class CAifMetric:
                                   "give the scale as a metric option")
         return s_c, s_a
 
+    def threshold(self, experiment: Experiment, n_sim: int, rate: float = DEFAULT_RATE) -> tuple[float, str]:
+        """The noise threshold of d for ``n_sim`` pooled seeds, and how it was built."""
+        loci = len(experiment.replicate_loci())
+        sigma = np.unique(experiment.normal_stress)
+        rho = -float(np.mean(sigma) / math.sqrt(np.mean(sigma**2)))
+        given = self.scale_cohesion_pa is not None and self.scale_aif_deg is not None
+        factor = 1.0 / max(loci, 1) + 1.0 / n_sim
+        if given:
+            nu, how = math.inf, "scales given as options (taken as one test's noise, known exactly)"
+        elif loci >= 2:
+            nu, how = loci - 1, f"{loci} replicates ({loci - 1} dof)"
+        else:
+            nu = max(experiment.normal_stress.size - 2, 1)
+            how = f"one replicate: its regression errors ({nu:g} dof) as the spread"
+        how += f", {n_sim} seed(s), C–AIF correlation {rho:.2f}"
+        value = noise_threshold([nu, nu], np.asarray([[1.0, rho], [rho, 1.0]]), factor=factor, rate=rate)
+        return value, how
+
     def evaluate(self, results: list[ShearTestResult], experiment: Experiment) -> MetricValue:
         sigma = np.concatenate([r.target_normal_stress if self.against == "target" else r.peak_normal_stress
                                 for r in results])
@@ -63,15 +101,131 @@ class CAifMetric:
             unc = math.sqrt((dc * ec) ** 2 + (da * ea) ** 2) / d
         else:
             unc = math.sqrt((ec**2 + ea**2) / 2.0)
+        limit, how = self.threshold(experiment, len(results))
         features = {
             "cohesion_sim": sim.cohesion, "aif_sim": sim.aif_deg,
             "cohesion_sim_stderr": sim.cohesion_stderr, "aif_sim_stderr": sim.aif_stderr_deg,
             "cohesion_exp": exp.cohesion, "aif_exp": exp.aif_deg,
-            "scale_cohesion": s_c, "scale_aif": s_a,
+            "scale_cohesion": s_c, "scale_aif": s_a, **_threshold_features(limit, DEFAULT_RATE, how),
         }
         return MetricValue(d, unc, features)
 
 
+class RobustMetric:
+    """A distance on features that rise above a coarse cell's seed noise:
+
+        d² = Σ_i ((f_sim,i − f_exp,i) / s_i)²,   s_i² = s_exp,i² / n_exp + s_seed,i² / n_sim,
+
+    over the peak τ/σ_measured of each shear step (``peak_ratio``: τ and σ swing together, so their
+    ratio is far steadier than τ), the steady τ/σ of the preshears averaged over the test
+    (``preshear_ratio``) and the bulk density at the preshear stress (``bulk_density``) where the
+    experiment measured it. f_exp is the replicates' mean, f_sim the seeds' mean at the point.
+
+    Options:
+        features: the feature stems to use (default all three; a stem the experiment lacks is left out).
+        seed_spread: {stem: s.d. of one simulation}, the simulation's seed-to-seed spread (measure it
+            with ``benchmarks/seed_noise.py``); without it the experiment's replicate spread stands in,
+            which is exact for a pseudo-experiment made by the same cell.
+        seed_spread_seeds: how many seeds ``seed_spread`` was measured from (its degrees of freedom
+            are one fewer); default: taken as exact.
+
+    Noise threshold: the 95 % quantile of Σ t_i² with each t_i's degrees of freedom from Welch–
+    Satterthwaite on s_i² (independent features), by :func:`~calibrax.core.threshold.noise_threshold`.
+    """
+
+    name = "robust"
+    STEMS = ("peak_ratio", "preshear_ratio", "bulk_density")
+    OPTIONS = {"features": list, "seed_spread": dict, "seed_spread_seeds": int}
+
+    def __init__(self, features: list[str] | None = None, seed_spread: dict[str, float] | None = None,
+                 seed_spread_seeds: int | None = None) -> None:
+        stems = list(features) if features is not None else list(self.STEMS)
+        bad = [f for f in stems if f not in self.STEMS]
+        if bad or not stems:
+            raise ConfigError("metric.features", f"unknown feature(s) {bad}; allowed: {list(self.STEMS)}")
+        spread = dict(seed_spread or {})
+        bad = [k for k, v in spread.items() if k not in self.STEMS or not (math.isfinite(v) and v > 0)]
+        if bad:
+            raise ConfigError(f"metric.seed_spread.{bad[0]}", f"must be one of {list(self.STEMS)} with an s.d. > 0")
+        if seed_spread_seeds is not None and seed_spread_seeds < 2:
+            raise ConfigError("metric.seed_spread_seeds", f"must be ≥ 2, got {seed_spread_seeds}")
+        self.stems = stems
+        self.seed_spread = spread
+        self.seed_dof = math.inf if seed_spread_seeds is None else seed_spread_seeds - 1
+
+    @staticmethod
+    def _aggregate(f: dict[str, float]) -> dict[str, float]:
+        """One feature dict's values for the metric: per-step peak ratios, mean preshear ratio, density."""
+        out = {k: v for k, v in f.items() if k.startswith("peak_ratio_")}
+        pre = [v for k, v in f.items() if k.startswith("preshear_ratio_") and math.isfinite(v)]
+        if pre:
+            out["preshear_ratio"] = float(np.mean(pre))
+        if "bulk_density" in f and math.isfinite(f["bulk_density"]):
+            out["bulk_density"] = f["bulk_density"]
+        return out
+
+    def _stem(self, name: str) -> str:
+        return name if name in self.STEMS else name.rsplit("_", 1)[0]
+
+    def _experiment_summary(self, experiment: Experiment) -> dict[str, Any]:
+        per = [self._aggregate(f) for f in experiment_features(experiment).values()]
+        return {k: v for k, v in summarise(per).items() if self._stem(k) in self.stems}
+
+    def scales(self, experiment: Experiment) -> dict[str, float]:
+        """The experiment's replicate spread of each feature used; ConfigError when there is none."""
+        summary = self._experiment_summary(experiment)
+        if not summary:
+            raise ConfigError("metric.features", f"the experiment has none of the features {self.stems}")
+        spread = {}
+        for name, s in summary.items():
+            stem = self._stem(name)
+            sd = s.sd if math.isfinite(s.sd) and s.sd > 0 else math.nan
+            if not math.isfinite(sd) and stem not in self.seed_spread:
+                raise ConfigError(f"metric.seed_spread.{stem}",
+                                  f"the experiment has a single replicate of {name}, so no spread to scale by; "
+                                  "give the simulation's seed spread")
+            spread[name] = sd
+        return spread
+
+    def evaluate(self, results: list[ShearTestResult], experiment: Experiment) -> MetricValue:
+        exp = self._experiment_summary(experiment)
+        sims = [self._aggregate(result_features(r)) for r in results]
+        sim = summarise(sims)
+        n_sim = len(results)
+        total, dofs, feats, seed_var = 0.0, [], {}, {}
+        for name, e in exp.items():
+            if name not in sim:
+                continue
+            stem = self._stem(name)
+            s_exp = e.sd if e.n > 1 and math.isfinite(e.sd) else 0.0
+            s_seed = self.seed_spread.get(stem, s_exp)
+            nu_seed = self.seed_dof if stem in self.seed_spread else max(e.n - 1, 1)
+            var_exp, var_sim = s_exp**2 / e.n, s_seed**2 / n_sim
+            seed_var[name] = var_sim
+            if stem in self.seed_spread:
+                nu = welch_dof([(var_exp, max(e.n - 1, 1)), (var_sim, nu_seed)])
+            else:
+                nu = max(e.n - 1, 1)
+            scale = math.sqrt(var_exp + var_sim)
+            z = (sim[name].mean - e.mean) / scale
+            total += z * z
+            dofs.append(nu)
+            feats[f"{name}_sim"], feats[f"{name}_exp"], feats[f"{name}_scale"] = sim[name].mean, e.mean, scale
+        if not dofs:
+            return MetricValue(math.nan, math.nan, feats)
+        d = math.sqrt(total)
+        limit = noise_threshold(dofs)
+        how = (f"{len(dofs)} features, seed spread {'given' if self.seed_spread else 'from the replicates'}, "
+               f"dof {min(dofs):.3g}–{max(dofs):.3g}")
+        # the uncertainty of d from the simulation's own seed noise (delta method: z_i moves by
+        # s_seed,i/√n_sim over its scale)
+        grad2 = [((feats[f"{n}_sim"] - feats[f"{n}_exp"]) / feats[f"{n}_scale"] ** 2) ** 2 * seed_var[n]
+                 for n in seed_var]
+        unc = math.sqrt(sum(grad2)) / d if d > 0 else 0.0
+        feats.update(_threshold_features(limit, DEFAULT_RATE, how))
+        return MetricValue(d, unc, feats)
+
+
 @hookimpl
 def calibrax_metrics() -> list[type]:
-    return [CAifMetric]
+    return [CAifMetric, RobustMetric]
