@@ -86,7 +86,7 @@ def calibrax_cli(*args: str, env: dict | None = None, timeout: float = 600) -> s
                           env=env or double_env(), timeout=timeout, cwd=ROOT)
 
 
-PSEUDO_EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny.csv"
+PSEUDO_EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny-points.csv"
 #: A shortened ``tiny`` shear test for campaign tests of the real backends: the paper's four
 #: steps, half the preset's rotations, so that one simulation takes about a minute on one core.
 SHORT_TINY_CELL = {"preset": "tiny", "procedure": {"preset": "paper", "preshear_rotation": 0.06,

@@ -37,7 +37,7 @@ EXPECTED_MICRO = {"collision e=1": ("contact_time", "restitution", "peak_overlap
 
 
 def write_real_config(folder, simulator: str = "numba_dem") -> str:
-    shutil.copy(ROOT / "examples/data/pseudo-numba-tiny.csv", folder / "exp.csv")
+    shutil.copy(ROOT / "examples/data/pseudo-numba-tiny-points.csv", folder / "exp.csv")
     config = {"name": "study", "simulator": simulator, "experiment": "exp.csv", "cell": CELL, "material": MATERIAL,
               "parameters": {"youngs_modulus": {"low": 5.0e9, "high": 5.0e10, "log": True},
                              "sliding_friction": {"low": 0.1, "high": 0.9}},

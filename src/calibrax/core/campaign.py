@@ -58,6 +58,21 @@ class CampaignSummary:
     best_params: dict[str, float]
     best_value: float
     best_uncertainty: float
+    #: the metric's noise threshold at the best point and the rate it holds at (NaN: none stated)
+    noise_threshold: float = float("nan")
+    noise_threshold_rate: float = float("nan")
+
+    def noise_text(self) -> str:
+        """How the best distance compares with the metric's noise threshold, in words."""
+        return noise_text(self.best_value, self.noise_threshold, self.noise_threshold_rate)
+
+
+def noise_text(value: float, threshold: float, rate: float) -> str:
+    """"within the noise (d ≤ 7.1, met by the truth 95 % of the time)" or "outside ..."."""
+    if not (math.isfinite(threshold) and math.isfinite(value)):
+        return "no noise threshold stated"
+    where = "within" if value <= threshold else "outside"
+    return f"{where} the noise (threshold d = {threshold:.3g}, met by the true parameters {rate:.0%} of the time)"
 
 
 @dataclass
@@ -68,9 +83,15 @@ class _InFlight:
     started: float
 
 
+#: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
+#: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
+EXPERIMENT_SEED_BASE = 2**30
+
+
 def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
-    """The seed of simulation ``index`` of point ``point_id``: distinct, reproducible, < 2³¹."""
-    return (campaign_seed * 1_000_003 + point_id * 1_000 + index) % (2**31 - 1)
+    """The seed of simulation ``index`` of point ``point_id``: distinct, reproducible, and below
+    :data:`EXPERIMENT_SEED_BASE`, so never the seed of a pseudo-experiment's replicate."""
+    return (campaign_seed * 1_000_003 + point_id * 1_000 + index) % EXPERIMENT_SEED_BASE
 
 
 def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> ShearCellSpec:
@@ -120,6 +141,7 @@ class Campaign:
         self.acquisition = manager.create("acquisition", config.acquisition, **config.acquisition_options)
         self.engine = manager.create("simulator", config.simulator)
         self._best: tuple[float, int, dict[str, float]] | None = None
+        self._best_noise: tuple[float, float] = (math.nan, math.nan)
         self._inflight: dict[cf.Future, _InFlight] = {}
         self._outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
 
@@ -137,6 +159,7 @@ class Campaign:
             previous = self.summary(store)
             if previous.best_id is not None:
                 self._best = (previous.best_value, previous.best_id, previous.best_params)
+                self._best_noise = (previous.noise_threshold, previous.noise_threshold_rate)
             executor = get_manager().create("executor", cfg.executor, **cfg.executor_options)
             try:
                 if not store.points():
@@ -191,7 +214,8 @@ class Campaign:
         if best is None:
             return CampaignSummary(store.path, len(points), len(done), failed, None, {}, float("nan"), float("nan"))
         return CampaignSummary(store.path, len(points), len(done), failed, best.id, best.params(),
-                               best.metric.value, best.metric.uncertainty)
+                               best.metric.value, best.metric.uncertainty, best.metric.threshold,
+                               best.metric.threshold_rate)
 
     # ------------------------------------------------------------------------------------------
     def _propose_and_submit(self, store: CampaignStore, executor, points: list[PointRecord], batch: int, q: int,
@@ -316,8 +340,10 @@ class Campaign:
             f = metric.features
             msg += (f", C = {f.get('cohesion_sim', float('nan')):.0f} Pa, AIF = {f.get('aif_sim', float('nan')):.1f}°,"
                     f" d = {metric.value:.3g} ± {metric.uncertainty:.2g}")
+            msg += f" ({noise_text(metric.value, metric.threshold, metric.threshold_rate).split(' (')[0]})"
             if self._best is None or metric.value < self._best[0]:
                 self._best = (metric.value, point.id, point.params())
+                self._best_noise = (metric.threshold, metric.threshold_rate)
         elif error:
             msg += f"; metric failed: {error}"
         self._emit("done", f"{msg} | {self._best_text()}", point=point.id, sim=index, seed=seed, wall_s=wall,
@@ -335,7 +361,7 @@ class Campaign:
         if self._best is None:
             return "no best point yet"
         v, pid, params = self._best
-        return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)})"
+        return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)}), {noise_text(v, *self._best_noise)}"
 
 
 def run_campaign(config: CampaignConfig, listener: Callable[[dict[str, Any]], None] | None = None) -> CampaignSummary:

@@ -1,0 +1,147 @@
+"""How noisy a cell is, and whether a metric's noise threshold holds: run one parameter point with
+many seeds, print every feature's seed-to-seed spread, and (with --experiment) score each seed
+against the experiment with each metric and count how many fall within the metric's threshold.
+
+    .venv/bin/python benchmarks/seed_noise.py --preset tiny --seeds 100-107 --workers 2
+    .venv/bin/python benchmarks/seed_noise.py --preset tiny --seeds 200-209 --set youngs_modulus=2e10 \\
+        --set sliding_friction=0.35 --experiment examples/data/pseudo-numba-tiny.yaml --metric c_aif --metric robust
+
+Material defaults to Table 1 of the reference paper. Each seed's whole result is saved in the
+--cache folder as it finishes, and a seed already there is not run again, so an interrupted run
+resumes and a second metric costs no simulation. --spread-out writes the seed spread of the robust metric's features as a YAML
+fragment for its ``seed_spread`` option. Seeds stay below calibrax.core.campaign.EXPERIMENT_SEED_BASE.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _seeds(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out.extend(range(int(lo), int(hi or lo) + 1))
+    return out
+
+
+def _spec(args: argparse.Namespace, seed: int):
+    from calibrax import ShearCellSpec
+
+    material = {k: float(v) for k, _, v in (s.partition("=") for s in args.set)}
+    geometry = {k: float(v) if "." in v or "e" in v else int(v) for k, _, v in (s.partition("=") for s in args.geometry)}
+    return ShearCellSpec.preset(args.preset, args.procedure, material=material, geometry=geometry,
+                                numerics={"seed": seed, "threads": 1}).validate()
+
+
+def run_seed(args: argparse.Namespace, seed: int, folder: Path) -> int:
+    """One simulation, saved whole to ``folder/seed_<seed>.h5`` (written aside, then renamed)."""
+    import h5py
+
+    from calibrax import get_manager
+    from calibrax.core.store import _write_result
+
+    spec = _spec(args, seed)
+    with tempfile.TemporaryDirectory() as work:
+        result = get_manager().create("simulator", args.simulator).simulate(spec, Path(work))
+    tmp = folder / f".seed_{seed}.h5.tmp"
+    with h5py.File(tmp, "w") as f:
+        _write_result(f.create_group("result"), result)
+    tmp.rename(folder / f"seed_{seed}.h5")
+    return seed
+
+
+def load_seed(folder: Path, seed: int):
+    import h5py
+
+    from calibrax.core.store import _read_result
+
+    with h5py.File(folder / f"seed_{seed}.h5", "r") as f:
+        return _read_result(f["result"])
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--simulator", default="numba_dem")
+    p.add_argument("--preset", default="tiny")
+    p.add_argument("--procedure", default="paper")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="a material field")
+    p.add_argument("--geometry", action="append", default=[], metavar="FIELD=VALUE", help="a geometry field")
+    p.add_argument("--seeds", default="100-107", help="e.g. 100-107 or 1,5,9")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--cache", type=Path, help="folder of per-seed results, one HDF5 file each (default under runs/)")
+    p.add_argument("--experiment", type=Path, help="score each seed against this experiment")
+    p.add_argument("--metric", action="append", default=[], help="metric name (repeatable) for --experiment")
+    p.add_argument("--spread-out", type=Path, help="write the robust metric's seed_spread YAML fragment here")
+    args = p.parse_args(argv)
+    from calibrax.core.campaign import EXPERIMENT_SEED_BASE
+
+    seeds = _seeds(args.seeds)
+    if max(seeds) >= EXPERIMENT_SEED_BASE:
+        p.error(f"seeds must stay below {EXPERIMENT_SEED_BASE} (pseudo-experiments' seeds lie above)")
+    spec = _spec(args, 0)
+    folder = args.cache or Path("runs") / f"seed_noise-{args.simulator}-{args.preset}-{spec.spec_hash()}"
+    folder.mkdir(parents=True, exist_ok=True)
+    todo = [s for s in seeds if not (folder / f"seed_{s}.h5").exists()]
+    print(f"{args.simulator}, {args.preset}: {len(seeds)} seeds ({len(todo)} to run, {args.workers} workers); "
+          f"results in {folder}", file=sys.stderr)
+    with cf.ProcessPoolExecutor(args.workers) as pool:
+        futures = [pool.submit(run_seed, args, s, folder) for s in todo]
+        for fut in cf.as_completed(futures):
+            print(f"seed {fut.result()} done", file=sys.stderr)
+    from calibrax.core.features import result_features
+
+    results = [load_seed(folder, s) for s in seeds]
+    done = [{"features": result_features(r, spec.procedure.peak_window), "wall_s": r.provenance.wall_time,
+             "base_slip": r.base_slip.tolist()} for r in results]
+    from calibrax.core.features import FEATURES, feature_def, summarise
+
+    summary = summarise(r["features"] for r in done)
+    print(f"\n{args.simulator}, preset {args.preset}, material {args.set or 'Table 1'}, {len(done)} seeds "
+          f"({min(seeds)}–{max(seeds)}), median wall {np.median([r['wall_s'] for r in done]):.0f} s per test\n")
+    print("| feature | unit | mean | seed s.d. | s.d./|mean| | n |\n|---|---|---|---|---|---|")
+    order = {stem: i for i, stem in enumerate(FEATURES)}
+    for name in sorted(summary, key=lambda n: (order[feature_def(n).stem], n)):
+        s = summary[name]
+        rel = s.sd / abs(s.mean) if s.mean else math.nan
+        print(f"| {name} | {feature_def(name).unit} | {s.mean:.4g} | {s.sd:.3g} | {rel:.1%} | {s.n} |")
+    slips = np.asarray([r["base_slip"] for r in done], dtype=float)
+    print(f"\nbase slip (bottom layer's spin / head's rate): median {np.nanmedian(slips):.3f}, max {np.nanmax(slips):.3f}")
+    if args.spread_out:
+        from calibrax.plugins.builtin.metrics import RobustMetric
+
+        agg = summarise(RobustMetric._aggregate(r["features"]) for r in done)
+        ratio_sd = float(np.sqrt(np.mean([agg[k].sd ** 2 for k in agg if k.startswith("peak_ratio_")])))
+        fragment = {"peak_ratio": ratio_sd, "preshear_ratio": agg["preshear_ratio"].sd,
+                    "bulk_density": agg["bulk_density"].sd}
+        args.spread_out.write_text("seed_spread: {" + ", ".join(f"{k}: {v:.3g}" for k, v in fragment.items())
+                                   + f"}}\nseed_spread_seeds: {len(done)}\n")
+        print(f"wrote {args.spread_out}")
+    if args.experiment:
+        from calibrax import get_manager, load_experiment
+
+        exp = load_experiment(args.experiment)
+        print(f"\nagainst {args.experiment} (one seed per evaluation):\n")
+        print("| metric | d per seed | threshold (95 %) | within | share |\n|---|---|---|---|---|")
+        for name in args.metric or ["c_aif"]:
+            metric = get_manager().create("metric", name)
+            values = [metric.evaluate([r], exp) for r in results]
+            d = [v.value for v in values]
+            limit = values[0].threshold
+            inside = sum(v.within_noise() for v in values)
+            print(f"| {name} | {', '.join(f'{x:.2f}' for x in d)} | {limit:.3g} | {inside} of {len(d)} | "
+                  f"{inside / len(d):.0%} |")
+            print(f"\n{name}: {values[0].features.get('noise_threshold_how', '')}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
