@@ -81,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--experiment", type=Path, help="score each seed against this experiment")
     p.add_argument("--metric", action="append", default=[], help="metric name (repeatable) for --experiment")
     p.add_argument("--spread-out", type=Path, help="write the robust metric's seed_spread YAML fragment here")
+    p.add_argument("--spread-in", type=Path, help="score with the robust metric given this seed_spread fragment too")
     args = p.parse_args(argv)
     from calibrax.core.campaign import EXPERIMENT_SEED_BASE
 
@@ -119,9 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         from calibrax.plugins.builtin.metrics import RobustMetric
 
         agg = summarise(RobustMetric._aggregate(r["features"]) for r in done)
-        ratio_sd = float(np.sqrt(np.mean([agg[k].sd ** 2 for k in agg if k.startswith("peak_ratio_")])))
-        fragment = {"peak_ratio": ratio_sd, "preshear_ratio": agg["preshear_ratio"].sd,
-                    "bulk_density": agg["bulk_density"].sd}
+        fragment = {k: agg[k].sd for k in ("peak_ratio", "preshear_ratio", "bulk_density")}
         args.spread_out.write_text("seed_spread: {" + ", ".join(f"{k}: {v:.3g}" for k, v in fragment.items())
                                    + f"}}\nseed_spread_seeds: {len(done)}\n")
         print(f"wrote {args.spread_out}")
@@ -131,8 +130,13 @@ def main(argv: list[str] | None = None) -> int:
         exp = load_experiment(args.experiment)
         print(f"\nagainst {args.experiment} (one seed per evaluation):\n")
         print("| metric | d per seed | threshold (95 %) | within | share |\n|---|---|---|---|---|")
-        for name in args.metric or ["c_aif"]:
-            metric = get_manager().create("metric", name)
+        metrics = [(name, get_manager().create("metric", name)) for name in args.metric or ["c_aif"]]
+        if args.spread_in:
+            import yaml
+
+            options = yaml.safe_load(args.spread_in.read_text())
+            metrics.append((f"robust ({args.spread_in.name})", get_manager().create("metric", "robust", **options)))
+        for name, metric in metrics:
             values = [metric.evaluate([r], exp) for r in results]
             d = [v.value for v in values]
             limit = values[0].threshold

@@ -73,8 +73,9 @@ def _parser() -> argparse.ArgumentParser:
 
     conv = sub.add_parser("converge", help="fidelity study: particles per diameter, time step, shear rate",
                           description="Run the campaign's spec at several fidelity settings with N seeds each and "
-                                      "state the cheapest setting whose C, AIF and bulk density lie within the "
-                                      "uncertainty of the finest (bulk density: at least within 2 %) "
+                                      "state the cheapest setting whose C, AIF, bulk density and robust features "
+                                      "(peak and preshear τ/σ) lie within the uncertainty of the finest (bulk "
+                                      "density: at least within 2 %) "
                                       "(converge.md, converge.png/svg).")
     conv.add_argument("config", type=Path, help="campaign YAML file")
     conv.add_argument("--particles-per-diameter", metavar="LIST", help="e.g. 15,20,25,34 (the paper: 25,34,46,63)")

@@ -173,7 +173,7 @@ def test_converge_on_two_particle_counts_writes_table_figure_and_a_verdict(tmp_p
     text = (out / "converge.md").read_text()
     assert "particles_per_diameter=7" in text and "particles_per_diameter=9" in text
     verdict = next(line for line in text.splitlines() if line.startswith("**particles_per_diameter:"))
-    assert ("the cheapest setting is 7: its C, AIF and bulk density lie within" in verdict
+    assert ("the cheapest setting is 7: its C, AIF, bulk density and peak and preshear τ/σ lie within" in verdict
             or "the cheapest setting is the finest, 9: no coarser setting" in verdict), verdict
     store = CampaignStore(out / "converge.h5")
     counts = sorted(store.result(p.id, 0).provenance.particle_count for p in store.points())

@@ -121,3 +121,12 @@ def test_a_result_whose_head_lost_the_bed_is_a_failed_simulation():
     with pytest.raises(SimulationFailed, match="lost the bed") as info:
         ShearTestResult.from_steps(spec, [pre, lifted], [1500.0], Provenance("hand", "-", "-", 0, 1.0, 100))
     assert info.value.kind == "invalid"
+
+
+def test_converge_also_needs_the_robust_features_within_the_finest():
+    finest = dict(converge_summary(1000.0, 30.0, 1550.0), peak_ratio=0.80, peak_ratio_sd=0.03,
+                  preshear_ratio=0.56, preshear_ratio_sd=0.03, seeds_ok=4.0)
+    close = dict(finest, peak_ratio=0.84)  # 0.04 ≤ 2·√2·0.015
+    assert within_finest(close, finest)
+    far = dict(finest, preshear_ratio=0.66)  # 0.10 > 0.042
+    assert not within_finest(far, finest)

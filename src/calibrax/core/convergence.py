@@ -2,8 +2,9 @@
 
 The reference paper's particle-count study (25/34/46/63 particles per cell diameter at fixed R and
 H/D), extended to the time-step fraction and the shear rate (inertial number). Each setting runs
-with N seeds; the answer is the cheapest setting whose C and AIF both lie within
-2·√(u² + u_finest²) of the finest setting's, and whose bulk density after preshear lies within
+with N seeds; the answer is the cheapest setting whose C and AIF, and the robust features (peak
+and preshear τ/σ, means over the steps), lie within 2·√(u² + u_finest²) of the finest setting's,
+and whose bulk density after preshear lies within
 the larger of that and :data:`DENSITY_TOLERANCE` of the finest's. (C and AIF alone are not
 enough: with a few seeds their uncertainties are wide, while the density of a coarse cell, shaped
 by the wall, can still be 20 % off.)
@@ -87,18 +88,29 @@ class Verdict:
         """The verdict: always names the cheapest setting (the finest itself when no other is within)."""
         if self.cheapest_ok is None:
             return (f"{self.knob}: the cheapest setting is the finest, {self.finest:g}: no coarser setting's C, AIF "
-                    "and bulk density lie within the finest's uncertainty; go finer to see convergence")
-        return (f"{self.knob}: the cheapest setting is {self.cheapest_ok:g}: its C, AIF and bulk density lie within "
-                f"the uncertainty of the finest's ({self.finest:g})")
+                    "bulk density and peak and preshear τ/σ lie within the finest's uncertainty; go finer to "
+                    "see convergence")
+        return (f"{self.knob}: the cheapest setting is {self.cheapest_ok:g}: its C, AIF, bulk density and peak and "
+                f"preshear τ/σ lie within the uncertainty of the finest's ({self.finest:g})")
+
+
+#: the robust features a converged setting must also reproduce (calibrax.core.features, means over steps)
+ROBUST = ("peak_ratio", "preshear_ratio")
 
 
 def within_finest(s: dict[str, float], fs: dict[str, float]) -> bool:
     """Whether a setting's summary ``s`` (see :meth:`CaseOutcome.summary`) lies within the finest's
-    ``fs``: C and AIF within 2·√(u² + u_f²); bulk density within max(2·√(u² + u_f²),
-    DENSITY_TOLERANCE·ρ_f) (a u that one seed leaves undefined counts as 0)."""
+    ``fs``: C and AIF within 2·√(u² + u_f²); the robust features (peak and preshear τ/σ, where
+    the summaries have them) within 2·√(u² + u_f²) with u = seed s.d./√seeds; bulk density within
+    max(2·√(u² + u_f²), DENSITY_TOLERANCE·ρ_f) (a u that one seed leaves undefined counts as 0)."""
     for q in ("cohesion", "aif"):
         if not (q in s and q in fs and abs(s[q] - fs[q]) <= 2 * math.hypot(s[f"{q}_u"], fs[f"{q}_u"])):
             return False
+    for q in ROBUST:
+        if q in s and q in fs:
+            u = [x.get(f"{q}_sd", math.nan) / math.sqrt(max(x.get("seeds_ok", 1.0), 1.0)) for x in (s, fs)]
+            if not abs(s[q] - fs[q]) <= 2 * math.hypot(*(0.0 if math.isnan(v) else v for v in u)):
+                return False
     if "bulk_density" not in s or "bulk_density" not in fs:
         return False
     u = math.hypot(*(0.0 if math.isnan(x) else x for x in (s["bulk_density_u"], fs["bulk_density_u"])))
