@@ -417,7 +417,12 @@ PROCEDURES: dict[str, Procedure] = {
 }
 
 #: Fidelity presets: cell size in particle diameters (H/D = 0.88 as the paper's 12k…200k beds),
-#: time-step fraction, rotation and sampling, and as many one-diameter base ribs as the head has blades. ``paper`` is the reference paper's converged setting;
+#: time-step fraction, rotation and sampling, and as many one-diameter base ribs as the head has blades.
+#: ``quick`` and ``tiny`` step at 0.15 Δt_crit: at 0.20, with the ribbed base and friction ≥ 0.9 on
+#: particles or base, a particle's rotation went unstable (numba_dem, quick, μs = 0.9, seed 1: a
+#: particle touching a rib oscillated with a sign flip every step, ×2–3 per step, and escaped;
+#: LIGGGHTS lost atoms at tiny); sticking contacts stack the tangential and rolling springs' rotational
+#: stiffness, and a rib adds one more wall contact, the stiffest kind (R* = r) ``paper`` is the reference paper's converged setting;
 #: ``quick`` fits a 2-core machine; ``tiny`` is for tests and is noisy by design.
 FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
     "paper": {
@@ -430,13 +435,13 @@ FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
         "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0, "base_ribs": 12,
         "procedure": {"rotation_rate": 5.0, "preshear_rotation": 0.15, "shear_rotation": 0.12,
                       "settle_time": 0.005, "peak_window": 0.015},
-        "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
+        "numerics": {"dt_fraction": 0.15, "sample_interval": 2.0e-4},
     },
     "tiny": {
         "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0, "base_ribs": 8,
         "procedure": {"rotation_rate": 6.0, "preshear_rotation": 0.12, "shear_rotation": 0.12,
                       "settle_time": 0.004, "peak_window": 0.015},
-        "numerics": {"dt_fraction": 0.20, "sample_interval": 2.0e-4},
+        "numerics": {"dt_fraction": 0.15, "sample_interval": 2.0e-4},
     },
 }
 
