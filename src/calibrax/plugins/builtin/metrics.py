@@ -119,9 +119,9 @@ class RobustMetric:
     over the peak τ/σ_measured averaged over the shear steps (``peak_ratio``), the steady τ/σ of the
     preshears averaged over the test (``preshear_ratio``) and the bulk density at the preshear
     stress (``bulk_density``) where the experiment measured it. f_exp is the replicates' mean, f_sim
-    the seeds' mean at the point. Averages over the steps, because the steps' errors partly cancel:
-    at ``tiny`` and Table 1 (8 seeds) one step's peak τ/σ has a seed s.d. of 0.10–0.23 and the
-    four steps' mean 0.064 (the 9 and 6 kPa steps correlate at −0.8).
+    the seeds' mean at the point. Averages over the steps, because the steps' errors are nearly
+    independent, some anti-correlated: at ``tiny`` and Table 1 (8 seeds) one step's peak τ/σ has a
+    seed s.d. of 0.17–0.24 and the four steps' mean 0.11.
 
     Options:
         features: the feature stems to use: ``peak_ratio``, ``preshear_ratio``, ``bulk_density`` (the
