@@ -21,7 +21,7 @@ run: setup
 	$(VENV)/bin/calibrax status runs/quickstart.h5
 
 test: setup
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=25
 
 setup: engines $(STAMP)
 
