@@ -68,11 +68,11 @@ class CampaignSummary:
 
 
 def noise_text(value: float, threshold: float, rate: float) -> str:
-    """"within the noise (d ≤ 7.1, met by the truth 95 % of the time)" or "outside ..."."""
+    """"within the noise (threshold d = 7.5, which the truth meets 95% of the time)", or "outside"."""
     if not (math.isfinite(threshold) and math.isfinite(value)):
         return "no noise threshold stated"
     where = "within" if value <= threshold else "outside"
-    return f"{where} the noise (threshold d = {threshold:.3g}, met by the true parameters {rate:.0%} of the time)"
+    return f"{where} the noise (threshold d = {threshold:.3g}, which the truth meets {rate:.0%} of the time)"
 
 
 @dataclass
