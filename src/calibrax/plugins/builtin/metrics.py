@@ -182,10 +182,9 @@ class RobustMetric:
             raise ConfigError("metric.features", f"the experiment has none of the features {self.stems}")
         spread = {}
         for name, s in summary.items():
-            stem = name
             sd = s.sd if math.isfinite(s.sd) and s.sd > 0 else math.nan
-            if not math.isfinite(sd) and stem not in self.seed_spread:
-                raise ConfigError(f"metric.seed_spread.{stem}",
+            if not math.isfinite(sd) and name not in self.seed_spread:
+                raise ConfigError(f"metric.seed_spread.{name}",
                                   f"the experiment has a single replicate of {name}, so no spread to scale by; "
                                   "give the simulation's seed spread")
             spread[name] = sd
@@ -200,17 +199,16 @@ class RobustMetric:
         for name, e in exp.items():
             if name not in sim:
                 continue
-            stem = name
             s_exp = e.sd if e.n > 1 and math.isfinite(e.sd) else 0.0
-            s_seed = self.seed_spread.get(stem, s_exp)
-            nu_seed = self.seed_dof if stem in self.seed_spread else max(e.n - 1, 1)
+            given = name in self.seed_spread
+            s_seed = self.seed_spread[name] if given else s_exp
             var_exp, var_sim = s_exp**2 / e.n, s_seed**2 / n_sim
             seed_var[name] = var_sim
-            if stem in self.seed_spread:
-                nu = welch_dof([(var_exp, max(e.n - 1, 1)), (var_sim, nu_seed)])
-            else:
-                nu = max(e.n - 1, 1)
+            nu = welch_dof([(var_exp, max(e.n - 1, 1)), (var_sim, self.seed_dof)]) if given else max(e.n - 1, 1)
             scale = math.sqrt(var_exp + var_sim)
+            if not scale > 0:
+                raise ConfigError(f"metric.seed_spread.{name}", "neither the experiment's replicates nor the "
+                                  "given seed spread say how much this feature scatters; give its seed spread")
             z = (sim[name].mean - e.mean) / scale
             total += z * z
             dofs.append(nu)
