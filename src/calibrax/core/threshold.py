@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 __all__ = ["NoiseThreshold", "noise_threshold", "welch_dof", "DEFAULT_RATE"]
 
@@ -72,6 +71,8 @@ def noise_threshold(dof: "list[float] | np.ndarray", correlation: np.ndarray | N
     if k == 0:
         return math.nan
     if correlation is None and np.all(np.isinf(nu)):
+        from scipy import stats  # here, not at import: simulation processes import the metrics too
+
         return math.sqrt(factor * stats.chi2.ppf(rate, k))
     rng = np.random.default_rng(seed)
     corr = np.eye(k) if correlation is None else np.asarray(correlation, dtype=float)
