@@ -57,14 +57,17 @@ def test_epsd2_rolling_torque_on_the_base_mesh_saturates_at_mu_r_r_m_g():
 
 
 # ----------------------------------------------------------------------------- shear test
-def test_shear_test_gives_four_finite_peaks_and_a_positive_aif(shear_run):
+def test_shear_test_gives_four_finite_peaks_and_a_plausible_friction(shear_run):
     spec, result, _ = shear_run
     assert result.peak_shear_stress.shape == (4,)
     assert result.is_finite()
     assert np.all(result.peak_shear_stress > 0)
     locus = result.yield_locus("target")
     assert math.isfinite(locus.cohesion) and math.isfinite(locus.aif_deg)
-    assert locus.aif_deg > 0
+    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, README), so
+    # its sign says nothing about the engine; the mean peak τ/σ does (numba_dem: 0.68 ± 0.11)
+    ratio = float(np.mean(result.peak_shear_stress / result.peak_normal_stress))
+    assert 0.3 < ratio < 1.2, ratio
     assert result.provenance.backend == "liggghts"
     assert result.provenance.engine_version.startswith("LIGGGHTS")
     assert result.provenance.particle_count == spec.particle_count

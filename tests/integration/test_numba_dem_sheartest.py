@@ -32,13 +32,17 @@ def test_plugin_registers_the_simulator() -> None:
     assert {"wall_friction", "size_distribution", "cohesion", "base_ribs"} <= sim.capabilities()
 
 
-def test_four_finite_peaks_and_positive_aif(tiny_result) -> None:
+def test_four_finite_peaks_and_a_plausible_friction(tiny_result) -> None:
     spec, res = tiny_result
     assert res.peak_shear_stress.shape == (4,)
     assert res.is_finite()
     assert np.all(res.peak_shear_stress > 0)
     locus = res.yield_locus()
-    assert locus.aif_deg > 0
+    assert np.isfinite(locus.aif_deg) and np.isfinite(locus.cohesion)
+    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37°, README), so its sign says
+    # nothing about the engine; the mean peak τ/σ does (Table 1: 0.68 ± 0.11 over 8 seeds)
+    ratio = float(np.mean(res.peak_shear_stress / res.peak_normal_stress))
+    assert 0.3 < ratio < 1.2, ratio
     assert np.all(np.isfinite(res.bulk_density)) and np.all(res.bulk_density > 1000)
     kinds = [s.kind for s in res.steps]
     assert kinds == ["preshear", "shear"] * 4
