@@ -12,6 +12,7 @@ presets' time step.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import multiprocessing
 import math
 import shutil
 import tempfile
@@ -57,7 +58,7 @@ def runs(request) -> tuple[str, dict[tuple[str, int], ShearTestResult]]:
     if backend == "liggghts":
         assert shutil.which("liggghts"), "LIGGGHTS is a requirement of the test suite (make setup installs it)"
     cases = _cases(backend)
-    with cf.ProcessPoolExecutor(2) as pool:
+    with cf.ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {key: pool.submit(_simulate, backend, spec) for key, spec in cases.items()}
         return backend, {key: f.result() for key, f in futures.items()}
 

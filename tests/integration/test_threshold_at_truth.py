@@ -9,6 +9,7 @@ more seeds by ``benchmarks/seed_noise.py`` (README, "How noisy each preset is").
 from __future__ import annotations
 
 import concurrent.futures as cf
+import multiprocessing
 import math
 import re
 import tempfile
@@ -33,7 +34,7 @@ def _simulate(seed: int):
 
 @pytest.fixture(scope="module")
 def at_truth():
-    with cf.ProcessPoolExecutor(2) as pool:
+    with cf.ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
         return list(pool.map(_simulate, SEEDS))
 
 
