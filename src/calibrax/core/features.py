@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from calibrax.core.experiment import Experiment
     from calibrax.core.sheartest import ShearTestResult
 
-__all__ = ["FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",
+__all__ = ["step_mean", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",
            "result_features", "experiment_features", "FeatureSummary", "summarise", "STILL_RISING_POSITION"]
 
 
@@ -248,6 +248,13 @@ def experiment_features(experiment: "Experiment", peak_window: float = 0.015) ->
             f["bulk_density"] = float(np.nanmean(dens))
         out[int(rep)] = f
     return out
+
+
+def step_mean(features: dict[str, float], stem: str) -> float:
+    """The mean over the shear steps of a per-step feature (``stem``, e.g. ``"peak_ratio"``),
+    its finite values only; NaN when there are none."""
+    values = [v for k, v in features.items() if k.startswith(f"{stem}_") and k.endswith("kPa") and math.isfinite(v)]
+    return float(np.mean(values)) if values else math.nan
 
 
 @dataclass(frozen=True)

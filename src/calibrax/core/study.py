@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrax.core.executor import SimulationTask
-from calibrax.core.features import result_features
+from calibrax.core.features import result_features, step_mean
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
 from calibrax.core.store import CampaignStore
 from calibrax.core.yieldlocus import YieldLocus
@@ -70,8 +70,7 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
 def _robust_features(result: ShearTestResult) -> dict[str, float]:
     """The test's mean peak τ/σ_measured and mean preshear steady τ/σ (calibrax.core.features)."""
     f = result_features(result)
-    mean = lambda prefix: float(np.nanmean([v for k, v in f.items() if k.startswith(prefix)]))  # noqa: E731
-    return {"peak_ratio": mean("peak_ratio_"), "preshear_ratio": mean("preshear_ratio_")}
+    return {stem: step_mean(f, stem) for stem in ("peak_ratio", "preshear_ratio")}
 
 
 @dataclass

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from calibrax.core.experiment import Experiment
-from calibrax.core.features import experiment_features, result_features, step_suffix, summarise
+from calibrax.core.features import experiment_features, result_features, step_mean, summarise
 from calibrax.core.metric import MetricValue
 from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.threshold import DEFAULT_RATE, noise_threshold, welch_dof
@@ -164,9 +164,9 @@ class RobustMetric:
         and end-of-window τ/σ, and the bulk density."""
         out = {}
         for stem in ("peak_ratio", "preshear_ratio", "shear_end_ratio"):
-            values = [v for k, v in f.items() if k.startswith(f"{stem}_") and math.isfinite(v)]
-            if values:
-                out[stem] = float(np.mean(values))
+            value = step_mean(f, stem)
+            if math.isfinite(value):
+                out[stem] = value
         if "bulk_density" in f and math.isfinite(f["bulk_density"]):
             out["bulk_density"] = f["bulk_density"]
         return out
