@@ -118,3 +118,30 @@ def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
     path = folder / "campaign.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))
     return path
+
+
+# ----------------------------------------------------------------------------- simulation bank
+@pytest.fixture(scope="session")
+def bank(tmp_path_factory):
+    """The session's :class:`tests.bank.SimulationBank` of real-engine shear tests (started by
+    ``_start_bank`` as soon as the session starts)."""
+    from tests.bank import SimulationBank
+
+    simulations = SimulationBank(tmp_path_factory.mktemp("bank"))
+    yield simulations
+    simulations.close()
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _start_bank(request) -> None:
+    """Start the declared simulations at the first test, so that they run beside everything else;
+    the tests that read them run last (``pytest_collection_modifyitems``)."""
+    from tests.bank import JOBS
+
+    if JOBS and any("bank" in item.fixturenames for item in request.session.items):
+        request.getfixturevalue("bank").start()
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Tests that read the simulation bank run after all the others (stable order otherwise)."""
+    items.sort(key=lambda item: "bank" in getattr(item, "fixturenames", ()))

@@ -4,66 +4,58 @@ With the default base (one-diameter ribs, as many as the head's blades) the stea
 of the shear windows must not depend on the base's own friction (0.5 against 1.0 agree within
 their seed spread), no base-slip warning may fire from μs = 0.1 to 0.9, and the slip measure must
 see a base that does *not* hold (a flat base, and ribs a tenth of a diameter high on a
-frictionless base). ``tiny`` cells, seeds run two at a time. numba_dem blew up in exactly these
+frictionless base). ``tiny`` cells, from the session's simulation bank (tests/bank.py). numba_dem blew up in exactly these
 cases (μ_b = 1, μs = 0.9) at the former 0.20 Δt_crit, and LIGGGHTS lost atoms: they also guard the
 presets' time step.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import multiprocessing
 import math
-import shutil
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from calibrax import ShearCellSpec, get_manager
+from calibrax import ShearCellSpec
 from calibrax.core.features import result_features
-from calibrax.core.sheartest import BASE_SPIN_SLIP_FRACTION, ShearTestResult
+from calibrax.core.sheartest import BASE_SPIN_SLIP_FRACTION
+from tests.bank import declare_short, declare_tiny
 
-#: seeds per base friction: three on numba_dem; two on LIGGGHTS, whose tiny test takes about a
-#: minute and a half (quick, three seeds each: README, "What holds the bed")
+#: seeds per base friction: three on numba_dem; two on LIGGGHTS, whose tiny test takes about twice
+#: as long (quick, three seeds each: README, "What holds the bed")
 SEEDS = {"numba_dem": (0, 1, 2), "liggghts": (0, 1)}
+BACKENDS = tuple(SEEDS)
 
 
-def _simulate(backend: str, spec: ShearCellSpec) -> ShearTestResult:
-    with tempfile.TemporaryDirectory() as work:
-        return get_manager().create("simulator", backend).simulate(spec, Path(work))
-
-
-def _cases(backend: str) -> dict[tuple[str, int], ShearCellSpec]:
-    base = ShearCellSpec.preset("tiny")
-    cases = {}
+def _declare_cases(backend: str) -> dict[tuple[str, int], str]:
+    """The bank jobs of one backend, by (case, seed); the preset's own seed 0 and the short μs
+    cases are shared with the backends' shear-test modules."""
+    jobs = {}
     for seed in SEEDS[backend]:
-        cases[("mu_base_0.5", seed)] = base.replace(numerics={"seed": seed})
-        cases[("mu_base_1.0", seed)] = base.replace(geometry={"base_friction": 1.0}, numerics={"seed": seed})
-    # slip alone needs no steady state: half the rotations (the slip is read over each window's second half)
-    short = base.replace(procedure={"preshear_rotation": 0.06, "shear_rotation": 0.06})
-    cases[("mu_s_0.1", 0)] = short.replace(material={"sliding_friction": 0.1})
-    cases[("mu_s_0.9", 0)] = short.replace(material={"sliding_friction": 0.9})
-    cases[("flat", 0)] = short.replace(geometry={"base_ribs": 0})
-    if backend == "numba_dem":
-        cases[("weak_ribs", 0)] = short.replace(geometry={"rib_height": 0.1 * 2 * base.radius, "base_friction": 0.0,
-                                                          "base_rolling_friction": 0.0})
-    return cases
+        jobs[("mu_base_0.5", seed)] = declare_tiny(backend, seed)
+        jobs[("mu_base_1.0", seed)] = declare_tiny(backend, seed, "tiny-base1", geometry={"base_friction": 1.0})
+    # slip alone needs no steady state: half the rotations
+    jobs[("mu_s_0.1", 0)] = declare_short(backend, "mu_s_0.1", material={"sliding_friction": 0.1})
+    jobs[("mu_s_0.9", 0)] = declare_short(backend, "mu_s_0.9", material={"sliding_friction": 0.9})
+    jobs[("flat", 0)] = declare_short(backend, "flat", geometry={"base_ribs": 0})
+    if backend == "numba_dem":  # issue 22: ribs a tenth of a diameter high on a frictionless base
+        radius = ShearCellSpec.preset("tiny").radius
+        jobs[("weak_ribs", 0)] = declare_short(backend, "weak_ribs", geometry={
+            "rib_height": 0.1 * 2 * radius, "base_friction": 0.0, "base_rolling_friction": 0.0})
+    return jobs
 
 
-@pytest.fixture(scope="module", params=["numba_dem", "liggghts"])
-def runs(request) -> tuple[str, dict[tuple[str, int], ShearTestResult]]:
+JOBS = {backend: _declare_cases(backend) for backend in BACKENDS}
+
+
+@pytest.fixture(scope="module", params=BACKENDS)
+def runs(request, bank):
     backend = request.param
-    if backend == "liggghts":
-        assert shutil.which("liggghts"), "LIGGGHTS is a requirement of the test suite (make setup installs it)"
-    cases = _cases(backend)
-    with cf.ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {key: pool.submit(_simulate, backend, spec) for key, spec in cases.items()}
-        return backend, {key: f.result() for key, f in futures.items()}
+    return backend, {key: bank.result(name) for key, name in JOBS[backend].items()}
 
 
-def _steady_ratio(result: ShearTestResult) -> float:
+def _steady_ratio(result) -> float:
+    """Mean steady τ/σ at the end of the four shear windows."""
     f = result_features(result)
     return float(np.mean([v for k, v in f.items() if k.startswith("shear_end_ratio_")]))
 

@@ -16,20 +16,24 @@ from calibrax_liggghts import LiggghtsSimulator
 from calibrax_liggghts import mesh as meshes
 from calibrax_liggghts.script import num, write_inputs
 from calibrax_liggghts.verification import rolling_resistance, sliding_on_base, two_sphere_collision
+from tests.bank import JOBS, declare_short, declare_tiny
 
 
-def short_tiny_spec(**overrides) -> ShearCellSpec:
-    """The ``tiny`` preset (577 particles, 20 ms per rotation): about 100 s on one core."""
+def tiny_spec(**overrides) -> ShearCellSpec:
+    """The ``tiny`` preset (577 particles) with ``overrides`` as for :meth:`ShearCellSpec.replace`."""
     return ShearCellSpec.preset("tiny").replace(**overrides) if overrides else ShearCellSpec.preset("tiny")
 
 
+#: the ``tiny`` preset as it stands (shared with test_base_holds), and a short one without rolling
+#: resistance for the servo
+TINY = declare_tiny("liggghts")
+NO_ROLLING_RESISTANCE = declare_short("liggghts", "mu_r_0", material={"rolling_friction": 0.0})
+
+
 @pytest.fixture(scope="module")
-def shear_run(tmp_path_factory):
-    """One short tiny shear test on LIGGGHTS, shared by the assertions below."""
-    workdir = tmp_path_factory.mktemp("liggghts_shear")
-    spec = short_tiny_spec()
-    result = LiggghtsSimulator().simulate(spec, workdir)
-    return spec, result, workdir
+def shear_run(bank):
+    """One tiny shear test on LIGGGHTS from the session's bank, shared by the assertions below."""
+    return JOBS[TINY].spec, bank.result(TINY), bank.workdir(TINY)
 
 
 # ----------------------------------------------------------------------------- contact law
@@ -114,13 +118,12 @@ def _script_between(shear_run, start: str, end: str) -> str:
     return text[text.index(start):text.index(end)]
 
 
-def test_servo_holds_a_bed_without_rolling_resistance(tmp_path):
+def test_servo_holds_a_bed_without_rolling_resistance(bank):
     """μr = 0: the blades' friction reverses with the head's vertical motion. The former kinematic PI
     servo read a force that depended on the direction it moved the head, chattered, wound up its
     integral and lifted the head off this bed in the first preshear ("the head lost the bed"); the
     dynamic head (numba_dem's) holds σ in every step."""
-    spec = short_tiny_spec(material={"rolling_friction": 0.0})
-    result = LiggghtsSimulator().simulate(spec, tmp_path)
+    spec, result = JOBS[NO_ROLLING_RESISTANCE].spec, bank.result(NO_ROLLING_RESISTANCE)
     for s in result.steps:
         assert np.mean(s.normal_stress) == pytest.approx(s.target_stress, rel=0.15), s.kind
     assert np.all(result.peak_shear_stress > 0.1 * np.asarray(spec.procedure.shear_stresses))
@@ -139,7 +142,7 @@ def test_written_meshes_pass_the_stl_checker(shear_run):
 
 # ----------------------------------------------------------------------------- meshes
 def test_stl_checker_accepts_cell_meshes_with_ribs(tmp_path):
-    spec = short_tiny_spec(geometry={"base_ribs": 6})
+    spec = tiny_spec(geometry={"base_ribs": 6})
     write_inputs(spec.validate(), tmp_path)
     for name in ("base", "ribs", "head"):
         meshes.check_stl(tmp_path / f"{name}.stl")
@@ -170,7 +173,7 @@ def test_stl_checker_rejects_degenerate_and_malformed(tmp_path):
     {"sliding_friction": float("inf")},
 ])
 def test_injected_or_non_finite_values_are_rejected_before_any_file(tmp_path, material):
-    spec = short_tiny_spec(material=material)
+    spec = tiny_spec(material=material)
     workdir = tmp_path / "run"
     with pytest.raises(SpecError):
         LiggghtsSimulator().simulate(spec, workdir)
@@ -189,7 +192,7 @@ def test_unsupported_capability_is_refused(tmp_path):
         def capabilities(self):
             return frozenset({"rolling_friction"})
 
-    spec = short_tiny_spec(material={"cohesion_energy_density": 1.0e5})
+    spec = tiny_spec(material={"cohesion_energy_density": 1.0e5})
     with pytest.raises(ConfigError, match="cohesion"):
         Limited().simulate(spec, tmp_path / "run")
     assert not (tmp_path / "run").exists()
@@ -199,7 +202,7 @@ def test_unsupported_capability_is_refused(tmp_path):
 def test_missing_binary_raises_engine_not_found_with_install_hint(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))  # a PATH without liggghts
     with pytest.raises(EngineNotFound, match="apt-get install -y liggghts"):
-        LiggghtsSimulator().simulate(short_tiny_spec(), tmp_path / "run")
+        LiggghtsSimulator().simulate(tiny_spec(), tmp_path / "run")
     assert not (tmp_path / "run").exists()
 
 
@@ -216,7 +219,7 @@ def test_engine_error_becomes_simulation_failed_with_log_tail(tmp_path):
 def test_timeout_becomes_simulation_failed(tmp_path):
     from calibrax_liggghts.simulator import run_liggghts
 
-    spec = short_tiny_spec()
+    spec = tiny_spec()
     write_inputs(spec.validate(), tmp_path)
     with pytest.raises(SimulationFailed) as info:
         run_liggghts(tmp_path, timeout_s=2)
@@ -241,9 +244,9 @@ def test_every_capability_writes_a_script_liggghts_accepts(tmp_path):
     timeout, as the full test is not the point here)."""
     from calibrax_liggghts.simulator import run_liggghts
 
-    spec = short_tiny_spec(material={"cohesion_energy_density": 2.0e5},
-                           geometry={"base_ribs": 6, "wall_friction": 0.3},
-                           size_distribution={"kind": "lognormal", "sigma_log": 0.15})
+    spec = tiny_spec(material={"cohesion_energy_density": 2.0e5},
+                     geometry={"base_ribs": 6, "wall_friction": 0.3},
+                     size_distribution={"kind": "lognormal", "sigma_log": 0.15})
     assert LiggghtsSimulator().capabilities() >= {"cohesion", "base_ribs", "size_distribution", "wall_friction"}
     write_inputs(spec.validate(), tmp_path)
     script = (tmp_path / "in.calibrax").read_text()

@@ -8,34 +8,28 @@ more seeds by ``benchmarks/seed_noise.py`` (README, "How noisy each preset is").
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import multiprocessing
 import math
 import re
-import tempfile
 from pathlib import Path
 
 import pytest
 
-from calibrax import ShearCellSpec, get_manager, load_experiment
+from calibrax import get_manager, load_experiment
 from calibrax.core.campaign import EXPERIMENT_SEED_BASE, simulation_seed
+from tests.bank import declare_tiny
 
 ROOT = Path(__file__).resolve().parents[2]
 EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny.yaml"
 SEEDS = (300, 301, 302)
 
 
-def _simulate(seed: int):
-    spec = ShearCellSpec.preset("tiny", material={"youngs_modulus": 2.0e10, "sliding_friction": 0.35},
-                                numerics={"seed": seed, "threads": 1})
-    with tempfile.TemporaryDirectory() as work:
-        return get_manager().create("simulator", "numba_dem").simulate(spec, Path(work))
+AT_TRUTH = [declare_tiny("numba_dem", seed, "truth", material={"youngs_modulus": 2.0e10, "sliding_friction": 0.35})
+            for seed in SEEDS]
 
 
 @pytest.fixture(scope="module")
-def at_truth():
-    with cf.ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
-        return list(pool.map(_simulate, SEEDS))
+def at_truth(bank):
+    return [bank.result(name) for name in AT_TRUTH]
 
 
 def test_the_experiment_was_made_at_the_truth_with_seeds_no_campaign_uses():

@@ -8,9 +8,9 @@ import re
 
 import numpy as np
 import pytest
-from calibrax_yade import YadeSimulator
 
 from calibrax.core.sheartest import ShearCellSpec
+from tests.bank import declare
 
 pytestmark = pytest.mark.slow
 
@@ -21,11 +21,13 @@ SPEC = ShearCellSpec.preset("tiny").replace(
 )
 
 
+SHORT_TINY = declare("yade/short-tiny/s0", "yade", SPEC)
+
+
 @pytest.fixture(scope="module")
-def result(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("yade_shear")
-    res = YadeSimulator().simulate(SPEC, workdir)
-    return res, workdir
+def result(bank):
+    """The run from the session's bank (started with the session: it is the longest)."""
+    return bank.result(SHORT_TINY), bank.workdir(SHORT_TINY)
 
 
 def test_four_finite_peaks(result):
