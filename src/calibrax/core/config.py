@@ -3,7 +3,8 @@
 Every key is checked before anything runs: an unknown key, a wrong type, a non-finite number, a
 bound with low ≥ high, a missing file or an unknown plugin name raises :class:`ConfigError`
 naming the key path and what is allowed. Paths are relative to the campaign file's folder.
-YAML is read with ``yaml.safe_load`` only.
+YAML is read with a ``yaml.SafeLoader`` that refuses duplicate keys and deep nesting
+(:func:`calibrax.core.yamlfile.read_yaml`).
 """
 
 from __future__ import annotations
@@ -16,12 +17,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from calibrax.core.experiment import Experiment, load_experiment
 from calibrax.core.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
+from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError
 
 ROOT_KEYS = {
@@ -235,11 +235,7 @@ def load_config(path: str | Path) -> CampaignConfig:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(str(path), "campaign file not found")
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise ConfigError(str(path), f"is not valid YAML: {exc}") from None
-    return parse_config(raw, base=path.parent, source=path)
+    return parse_config(read_yaml(path), base=path.parent, source=path)
 
 
 def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignConfig:

@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from calibrax.core.yamlfile import read_yaml
 from calibrax.core.yieldlocus import YieldLocus
 from calibrax.errors import ExperimentError
 
@@ -231,10 +231,7 @@ def load_experiment(path: str | Path) -> Experiment:
         raise ExperimentError(str(path), "file not found (give a points CSV or a YAML header)")
     if path.suffix.lower() not in (".yaml", ".yml"):
         return load_points(path)
-    try:
-        header = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise ExperimentError(str(path), f"is not valid YAML: {exc}") from None
+    header = read_yaml(path, ExperimentError)
     if not isinstance(header, dict):
         raise ExperimentError(str(path), "must be a mapping with at least the key 'points'")
     unknown = set(header) - HEADER_KEYS
