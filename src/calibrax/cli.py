@@ -110,22 +110,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise ConfigError("--workers", f"must be ≥ 1, got {args.workers}")
         config = dataclasses.replace(config, executor_options={**config.executor_options, "workers": args.workers})
     if args.check:
-        spec = config.spec
-        print(yaml.safe_dump(config.resolved, sort_keys=False, allow_unicode=True), end="")
-        print(f"# cell: {spec.particle_count} particles, {spec.particles_per_diameter:.1f} per diameter, "
-              f"Δt = {spec.time_step:.3g} s ({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
-              f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
-        exp = config.experiment
-        locus = exp.locus()
-        print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
-              f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
-        if config.executor == "dask" and config.executor_options.get("cluster") in ("slurm", "pbs"):
-            from calibrax.plugins.manager import get_manager
-
-            executor = get_manager().create("executor", "dask", **config.executor_options)
-            print("# the job script dask-jobqueue will submit:")
-            print("\n".join(f"#   {line}" for line in executor.job_script().splitlines()))
-        print("# OK: nothing was run or written")
+        _print_check(config)
         return 0
     if args.json:
         def emit(event: dict) -> None:
@@ -142,6 +127,35 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"best: point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
               f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
     return 0
+
+
+def _print_check(config) -> None:
+    """``run --check``: the resolved settings, the cell, the experiment and the store, all checked as a
+    run checks them; nothing is run or written."""
+    from calibrax.core.store import CampaignStore
+
+    exists = CampaignStore(config.store).check(config.search_hash())
+    spec = config.spec
+    print(yaml.safe_dump(config.resolved, sort_keys=False, allow_unicode=True), end="")
+    print(f"# cell: {spec.particle_count} particles, {spec.particles_per_diameter:.1f} per diameter, "
+          f"Δt = {spec.time_step:.3g} s ({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
+          f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
+    exp = config.experiment
+    locus = exp.locus()
+    print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
+          f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
+    if config.executor == "dask" and config.executor_options.get("cluster") in ("slurm", "pbs"):
+        from calibrax.plugins.manager import get_manager
+
+        executor = get_manager().create("executor", "dask", **config.executor_options)
+        print("# the job script dask-jobqueue will submit:")
+        print("\n".join(f"#   {line}" for line in executor.job_script().splitlines()))
+    if exists:
+        print(f"# store {config.store}: made by this campaign; a run resumes it")
+    else:
+        folder = "" if config.store.parent.is_dir() else f" (and its folder {config.store.parent})"
+        print(f"# store {config.store}: new; a run creates it{folder}")
+    print("# OK: nothing was run or written")
 
 
 def _cmd_status(args: argparse.Namespace) -> int:

@@ -91,6 +91,31 @@ def _fsync_path(path: Path) -> None:
         os.close(fd)
 
 
+def _folder_problem(folder: Path) -> str | None:
+    """Why a store cannot be written in ``folder`` (None when it can): ``folder`` must be a writable
+    folder, or be missing with a writable folder as its parent."""
+    allowed = "give a store path in a writable folder (calibrax creates the store's own folder, no more)"
+    try:
+        if folder.is_dir():
+            return None if _writable(folder) else f"folder {folder} is not writable; {allowed}"
+        if folder.exists():
+            return f"{folder} is not a folder; {allowed}"
+        parent = folder.parent
+        if parent.is_dir():
+            return None if _writable(parent) else \
+                f"folder {folder} does not exist and cannot be created: {parent} is not writable; {allowed}"
+        if parent.exists():
+            return f"folder {folder} cannot be created: {parent} is not a folder; {allowed}"
+        return f"folder {folder} does not exist, nor does {parent}; create {folder} first, or {allowed}"
+    except OSError as exc:
+        return f"folder {folder} cannot be examined ({exc}); {allowed}"
+
+
+def _writable(folder: Path) -> bool:
+    """Whether files can be created (and renamed) in ``folder``."""
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
 class CampaignStore:
     """A campaign's HDF5 store. Use :meth:`open` (which locks) as a context manager."""
 
@@ -107,10 +132,32 @@ class CampaignStore:
     def tmp_path(self) -> Path:
         return self.path.with_name(self.path.name + ".tmp")
 
+    def check(self, search_hash: str) -> bool:
+        """What a run checks of its store, writing nothing (so that ``run --check`` and a refused run
+        leave no file behind): :meth:`check_folder`, and that an existing store is a calibrax store
+        made for ``search_hash``. True if the store exists."""
+        self.check_folder()
+        if not self.path.exists():
+            return False
+        with self._read() as f:
+            self._check_belongs(f, search_hash)
+        return True
+
+    def check_folder(self) -> None:
+        """Raise :class:`StoreError` unless the store's folder is a writable folder, or is missing
+        and its parent is a writable folder (:meth:`acquire` makes that one level, no more)."""
+        problem = _folder_problem(self.path.parent)
+        if problem:
+            raise StoreError(f"store {self.path}: {problem}")
+
     def acquire(self) -> "CampaignStore":
         """Take the store's exclusive lock or raise :class:`StoreLockedError`."""
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+        self.check_folder()
+        try:
+            self.path.parent.mkdir(exist_ok=True)
+            fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise StoreError(f"store {self.path} cannot be locked: {exc}") from exc
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -165,7 +212,8 @@ class CampaignStore:
             # poll, `calibrax status` during a run) make the campaign's own read fail with errno 11
             return h5py.File(self.path, "r", locking=False)
         except OSError as exc:
-            raise StoreError(f"store {self.path} cannot be opened as HDF5: {exc}") from exc
+            raise StoreError(f"store {self.path} cannot be opened as HDF5 ({exc}); give the path of a calibrax "
+                             "store, or a new path for a new campaign") from exc
 
     # ------------------------------------------------------------------------- campaign level
     def initialise(self, search_hash: str, config: dict[str, Any], calibrax_version: str,
@@ -174,13 +222,7 @@ class CampaignStore:
         alone can be reported on), or check that it belongs to it. True if it was created."""
         if self.path.exists():
             with self._read() as f:
-                if f.attrs.get("format") != FORMAT:
-                    raise StoreError(f"{self.path} is not a calibrax store (format {f.attrs.get('format')!r})")
-                stored = str(f.attrs.get("search_hash"))
-            if stored != search_hash:
-                raise StoreError(f"store {self.path} was made by a campaign with different settings "
-                                 f"(search hash {stored} ≠ {search_hash}); give a new store path, or restore "
-                                 "the campaign file it was made with (only budget, executor and paths may change)")
+                self._check_belongs(f, search_hash)
             return False
 
         def create(f: h5py.File) -> None:
@@ -196,6 +238,17 @@ class CampaignStore:
 
         self._mutate(create)
         return True
+
+    def _check_belongs(self, f: h5py.File, search_hash: str) -> None:
+        """Raise :class:`StoreError` unless the open store ``f`` is a calibrax store made for ``search_hash``."""
+        if f.attrs.get("format") != FORMAT:
+            raise StoreError(f"store {self.path} is not a calibrax store (format {f.attrs.get('format')!r}); "
+                             "give a new store path")
+        stored = str(f.attrs.get("search_hash"))
+        if stored != search_hash:
+            raise StoreError(f"store {self.path} was made by a campaign with different settings "
+                             f"(search hash {stored} ≠ {search_hash}); give a new store path, or restore "
+                             "the campaign file it was made with (only budget, executor and paths may change)")
 
     def config(self) -> dict[str, Any]:
         with self._read() as f:
