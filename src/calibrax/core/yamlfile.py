@@ -62,10 +62,20 @@ class StrictLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+def _load(text: str) -> Any:
+    """The single document in ``text``, read by a :class:`StrictLoader` (a safe loader: plain data
+    only, never Python objects)."""
+    loader = StrictLoader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
+
+
 def read_yaml(path: Path, error: type[ConfigError] = ConfigError) -> Any:
     """The parsed content of the YAML file ``path``; any problem is an ``error`` naming the file."""
     try:
-        return yaml.load(path.read_text(encoding="utf-8"), Loader=StrictLoader)  # noqa: S506 (a SafeLoader)
+        return _load(path.read_text(encoding="utf-8"))
     except RefusedYAML as exc:
         raise error(str(path), str(exc)) from None
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
