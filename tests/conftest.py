@@ -96,7 +96,9 @@ SHORT_TINY_CELL = {"preset": "tiny", "procedure": {"preset": "paper", "preshear_
 
 def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
     """A short campaign on a REAL backend against the bundled pseudo-experiment; ``changes``
-    update its keys. E is kept low (5–10 GPa: larger time steps) so that simulations are cheap."""
+    update its keys. E is kept low (5–10 GPa: larger time steps) so that simulations are cheap. The
+    timeout is only a safety net: the session's simulation bank (tests/bank.py) runs beside these
+    campaigns, so a simulation may take several times its time on an idle machine."""
     import shutil
 
     shutil.copy(PSEUDO_EXPERIMENT, folder / "exp.csv")
@@ -110,7 +112,7 @@ def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
         "metric": "c_aif",
         "acquisition": {"name": "qei", "q": 2},
         "budget": {"initial": 2, "iterations": 1},
-        "executor": {"name": "local", "workers": 2, "timeout_s": 900},
+        "executor": {"name": "local", "workers": 2, "timeout_s": 3000},
         "store": "runs/campaign.h5",
         "seed": 5,
     }

@@ -23,7 +23,7 @@ def test_campaign_runs_to_the_end_on_the_real_engine(tmp_path, simulator, iterat
     path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations}, cell=cell)
     total = 2 + 2 * iterations
     env = dict(os.environ)
-    proc = calibrax_cli("run", str(path), env=env, timeout=1500)
+    proc = calibrax_cli("run", str(path), env=env, timeout=3600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     points = CampaignStore(tmp_path / "runs/campaign.h5").points()
     assert len(points) == total

@@ -41,7 +41,7 @@ def write_real_config(folder, simulator: str = "numba_dem") -> str:
     config = {"name": "study", "simulator": simulator, "experiment": "exp.csv", "cell": CELL, "material": MATERIAL,
               "parameters": {"youngs_modulus": {"low": 5.0e9, "high": 5.0e10, "log": True},
                              "sliding_friction": {"low": 0.1, "high": 0.9}},
-              "executor": {"name": "local", "workers": 2, "timeout_s": 1500},
+              "executor": {"name": "local", "workers": 2, "timeout_s": 3000},
               "store": "runs/study.h5", "seed": 1}
     path = folder / "study.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))
@@ -55,7 +55,7 @@ def crosscheck(tmp_path_factory):
     config = write_real_config(folder)
     t0 = time.monotonic()
     proc = calibrax_cli("crosscheck", config, "--backends", ",".join(BACKENDS), "--seeds", "1", "--workers", "2",
-                        timeout=1800)
+                        timeout=3600)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return folder / "runs/study.crosscheck", proc, time.monotonic() - t0
 
@@ -165,7 +165,7 @@ def test_converge_on_two_particle_counts_writes_table_figure_and_a_verdict(tmp_p
     out = tmp_path / "conv"
     t0 = time.monotonic()
     proc = calibrax_cli("converge", config, "--particles-per-diameter", "7,9", "--seeds", "1", "--workers", "2",
-                        "-o", str(out), timeout=1200)
+                        "-o", str(out), timeout=2400)
     assert proc.returncode == 0, proc.stderr[-4000:]
     print(f"converge took {time.monotonic() - t0:.0f} s")
     for name in ("converge.md", "converge.png", "converge.svg", "converge.h5"):
