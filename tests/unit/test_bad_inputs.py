@@ -133,15 +133,21 @@ def test_the_default_store_folder_one_level_missing_is_created(tmp_path, capsys)
     assert not (tmp_path / "runs").exists()
 
 
+def assert_run_and_check_refuse(capsys, tmp_path: Path, path: Path, *words: str) -> None:
+    """A run and ``run --check`` of ``path`` both exit 2 with every one of ``words`` in the message,
+    and leave ``tmp_path`` as it was."""
+    before = listing(tmp_path)
+    for args in (["run", str(path)], ["run", str(path), "--check"]):
+        message = refused(capsys, *args)
+        assert all(word in message for word in words), message
+        assert listing(tmp_path) == before
+
+
 def test_a_store_under_a_file_is_refused(tmp_path, capsys):
     (tmp_path / "notes").write_text("not a folder\n")
     for store in ("notes/double.h5", "notes/runs/double.h5"):
         path = write_double_campaign(tmp_path, store=store)
-        before = listing(tmp_path)
-        for args in (["run", str(path)], ["run", str(path), "--check"]):
-            message = refused(capsys, *args)
-            assert "store" in message and str(tmp_path / "notes") in message and "not a folder" in message, message
-            assert listing(tmp_path) == before
+        assert_run_and_check_refuse(capsys, tmp_path, path, "store", str(tmp_path / "notes"), "not a folder")
 
 
 @pytest.mark.parametrize("store", ["ro/double.h5", "ro/runs/double.h5"])
@@ -150,11 +156,7 @@ def test_a_store_in_a_read_only_folder_is_refused(tmp_path, capsys, as_non_root,
     (tmp_path / "ro").chmod(0o555)
     try:
         path = write_double_campaign(tmp_path, store=store)
-        before = listing(tmp_path)
-        for args in (["run", str(path)], ["run", str(path), "--check"]):
-            message = refused(capsys, *args)
-            assert "store" in message and str(tmp_path / "ro") in message and "not writable" in message, message
-            assert listing(tmp_path) == before
+        assert_run_and_check_refuse(capsys, tmp_path, path, "store", str(tmp_path / "ro"), "not writable")
     finally:
         (tmp_path / "ro").chmod(0o755)
 
