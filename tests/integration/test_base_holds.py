@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from calibrax import ShearCellSpec
-from calibrax.core.features import result_features
+from calibrax.core.features import result_features, step_mean
 from calibrax.core.sheartest import BASE_SPIN_SLIP_FRACTION
 from tests.bank import declare_short, declare_tiny
 
@@ -56,8 +56,7 @@ def runs(request, bank):
 
 def _steady_ratio(result) -> float:
     """Mean steady τ/σ at the end of the four shear windows."""
-    f = result_features(result)
-    return float(np.mean([v for k, v in f.items() if k.startswith("shear_end_ratio_")]))
+    return step_mean(result_features(result), "shear_end_ratio")
 
 
 def test_the_steady_ratio_does_not_depend_on_the_bases_friction(runs):

@@ -150,8 +150,7 @@ class Campaign:
         cfg = self.config
         from calibrax import __version__
 
-        CampaignStore(cfg.store).check(cfg.search_hash())  # a refused store is refused before its lock file is made
-        with CampaignStore(cfg.store).acquire() as store:
+        with CampaignStore(cfg.store).acquire(cfg.search_hash()) as store:
             created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
             self._emit("campaign", f"{'new' if created else 'resuming'} campaign {cfg.name!r} on {cfg.simulator} "
                        f"({self.engine.version()}), {cfg.batching} batches of q = {cfg.q}; store {cfg.store}",

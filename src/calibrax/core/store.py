@@ -150,9 +150,14 @@ class CampaignStore:
         if problem:
             raise StoreError(f"store {self.path}: {problem}")
 
-    def acquire(self) -> "CampaignStore":
-        """Take the store's exclusive lock or raise :class:`StoreLockedError`."""
-        self.check_folder()
+    def acquire(self, search_hash: str | None = None) -> "CampaignStore":
+        """Take the store's exclusive lock or raise :class:`StoreLockedError`. With ``search_hash``,
+        :meth:`check` runs first, so that a refused store is refused before its lock file is made;
+        without it, only :meth:`check_folder`."""
+        if search_hash is None:
+            self.check_folder()
+        else:
+            self.check(search_hash)
         try:
             self.path.parent.mkdir(exist_ok=True)
             fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)

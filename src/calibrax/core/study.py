@@ -157,8 +157,7 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
     """Run every case's seeds through ``executor`` (resuming from ``store_path``), return the outcomes."""
     from calibrax import __version__
 
-    CampaignStore(store_path).check(study_hash(cases))  # a refused store is refused before its lock file is made
-    with CampaignStore(store_path).acquire() as store:
+    with CampaignStore(store_path).acquire(study_hash(cases)) as store:
         store.initialise(study_hash(cases), {"study": kind, "cases": [c.label for c in cases]}, __version__)
         if not store.points():
             for i, c in enumerate(cases):
