@@ -34,7 +34,7 @@ import numpy as np
 
 from calibrax.core.acquisition import Observations
 from calibrax.core.config import CampaignConfig
-from calibrax.core.executor import SimulationTask
+from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.store import CampaignStore, PointRecord
 from calibrax.errors import CalibraxError, SimulationFailed
@@ -77,10 +77,13 @@ def noise_text(value: float, threshold: float, rate: float) -> str:
 
 @dataclass
 class _InFlight:
+    """One submitted simulation: queued until a worker takes it (``started`` set then)."""
+
     point: PointRecord
     index: int
     seed: int
-    started: float
+    workdir: Path
+    started: float | None = None  # time.monotonic() when a worker took it
 
 
 #: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
@@ -129,6 +132,15 @@ def _fmt_params(params: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g}" for k, v in params.items())
 
 
+def _fmt_duration(seconds: float) -> str:
+    """45 s, 12 min, 2.3 h."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
 class Campaign:
     """One calibration campaign bound to its config; :meth:`run` runs or resumes it."""
 
@@ -144,6 +156,14 @@ class Campaign:
         self._best_noise: tuple[float, float] = (math.nan, math.nan)
         self._inflight: dict[cf.Future, _InFlight] = {}
         self._outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
+        #: simulations the whole campaign runs, those started or stored so far, and the engine's
+        #: own wall times (s) of those finished in this run (for the time left)
+        self._sims_total = 0
+        self._sims_started = 0
+        self._sims_finished = 0
+        self._engine_walls: list[float] = []
+        self._capacity = 1
+        self._starts = StartTracker(self._on_start)
 
     # ------------------------------------------------------------------------------------------
     def run(self) -> CampaignSummary:
@@ -152,15 +172,28 @@ class Campaign:
 
         with CampaignStore(cfg.store).acquire(cfg.search_hash()) as store:
             created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
-            self._emit("campaign", f"{'new' if created else 'resuming'} campaign {cfg.name!r} on {cfg.simulator} "
-                       f"({self.engine.version()}), {cfg.batching} batches of q = {cfg.q}; store {cfg.store}",
-                       resumed=not created, simulator=cfg.simulator, engine=self.engine.version(),
-                       store=str(cfg.store))
+            points = store.points()
+            target = cfg.initial + cfg.iterations * cfg.q
+            self._sims_total = max(target, len(points)) * cfg.seeds_per_point
+            stored = sum(1 for p in points for s in p.sims if s.status != "pending")
+            self._sims_started = self._sims_finished = stored
+            complete = len(points) >= target and stored == len(points) * cfg.seeds_per_point
+            if created:
+                state = "new campaign"
+            elif complete:
+                state = f"campaign complete ({len(points)} points, {stored} simulations stored; nothing to run):"
+            else:
+                state = f"resuming campaign ({stored} of {self._sims_total} simulations stored)"
+            self._emit("campaign", f"{state} {cfg.name!r} on {cfg.simulator} ({self.engine.version()}), "
+                       f"{cfg.batching} batches of q = {cfg.q}; store {cfg.store}, work folders in {cfg.workdir}",
+                       resumed=not created, complete=complete, simulator=cfg.simulator, engine=self.engine.version(),
+                       store=str(cfg.store), workdir=str(cfg.workdir), simulations=self._sims_total)
             previous = self.summary(store)
             if previous.best_id is not None:
                 self._best = (previous.best_value, previous.best_id, previous.best_params)
                 self._best_noise = (previous.noise_threshold, previous.noise_threshold_rate)
             executor = get_manager().create("executor", cfg.executor, **cfg.executor_options)
+            self._capacity = max(1, executor.capacity)
             try:
                 if not store.points():
                     self._add_batch(store, executor, 0, sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed),
@@ -195,14 +228,44 @@ class Campaign:
                     continue
             if not self._inflight:
                 return
-            done, _ = cf.wait(set(self._inflight), timeout=5.0, return_when=cf.FIRST_COMPLETED)
-            for fut in done:
+            for fut in self._starts.wait(self._inflight):
                 self._record(store, self._inflight.pop(fut), fut)
             if time.monotonic() - last_beat >= HEARTBEAT_S and self._inflight:
                 last_beat = time.monotonic()
-                elapsed = {job.point.id: round(time.monotonic() - job.started, 1) for job in self._inflight.values()}
-                text = ", ".join(f"point {k} ({v:.0f} s)" for k, v in sorted(elapsed.items()))
-                self._emit("running", f"running: {text} | {self._best_text()}", elapsed_s=elapsed)
+                self._heartbeat()
+
+    def _on_start(self, fut: cf.Future) -> None:
+        """A worker took this simulation: log its start ("simulation k of N …")."""
+        job = self._inflight[fut]
+        job.started = time.monotonic()
+        self._sims_started += 1
+        p, cfg = job.point, self.config
+        self._emit("started", f"simulation {self._sims_started} of {self._sims_total}: point {p.id} sim {job.index}: "
+                   f"{cfg.simulator} starts (seed {job.seed}, {_fmt_params(p.params())}) in {job.workdir}",
+                   point=p.id, sim=job.index, seed=job.seed, simulator=cfg.simulator, params=p.params(),
+                   workdir=str(job.workdir), number=self._sims_started, of=self._sims_total)
+
+    def _heartbeat(self) -> None:
+        """"running: point 3 sim 0 (40 s); queued: point 4 sim 0 | 2 of 6 simulations done, … | best …"."""
+        now = time.monotonic()
+        jobs = sorted(self._inflight.values(), key=lambda j: (j.point.id, j.index))
+        running = [(f"point {j.point.id} sim {j.index}", now - j.started) for j in jobs if j.started is not None]
+        queued = [f"point {j.point.id} sim {j.index}" for j in jobs if j.started is None]
+        text = "running: " + (", ".join(f"{name} ({t:.0f} s)" for name, t in running) or "none")
+        if queued:
+            text += f"; queued: {', '.join(queued)}"
+        self._emit("running", f"{text} | {self._progress_text()} | {self._best_text()}",
+                   running={name: round(t, 1) for name, t in running}, queued=queued)
+
+    def _progress_text(self) -> str:
+        """"3 of 6 simulations done, about 2 min left" (the time left: median engine time of this
+        run's finished simulations × those left ÷ workers)."""
+        text = f"{self._sims_finished} of {self._sims_total} simulations done"
+        left = self._sims_total - self._sims_finished
+        if left > 0 and self._engine_walls:
+            eta = float(np.median(self._engine_walls)) * math.ceil(left / self._capacity)
+            text += f", about {_fmt_duration(eta)} left"
+        return text
 
     @staticmethod
     def summary(store: CampaignStore) -> CampaignSummary:
@@ -299,22 +362,25 @@ class Campaign:
         for s in pending:
             task = SimulationTask(p.id, cfg.simulator, point_spec(cfg.spec, p.params(), s.seed),
                                   cfg.workdir / f"p{p.id:06d}-s{s.index}")
-            self._emit("started", f"point {p.id} sim {s.index}: {cfg.simulator} starts (seed {s.seed}, "
-                       f"{_fmt_params(p.params())})", point=p.id, sim=s.index, seed=s.seed,
-                       simulator=cfg.simulator, params=p.params())
-            self._inflight[executor.submit(task)] = _InFlight(p, s.index, s.seed, time.monotonic())
+            self._emit("queued", f"point {p.id} sim {s.index}: queued for {cfg.simulator} (seed {s.seed})",
+                       level=logging.DEBUG, point=p.id, sim=s.index, seed=s.seed)
+            self._inflight[executor.submit(task)] = _InFlight(p, s.index, s.seed, task.workdir)
 
     def _record(self, store: CampaignStore, job: _InFlight, fut: cf.Future) -> None:
         """Store one finished simulation; when it is the point's last, the point's metric too."""
         cfg = self.config
         point, index, seed = job.point, job.index, job.seed
-        wall = time.monotonic() - job.started
         try:
             result, failure = fut.result(), None
         except SimulationFailed as exc:
             result, failure = None, exc
         except Exception as exc:  # noqa: BLE001 — an executor fault is this simulation's failure
             result, failure = None, SimulationFailed(f"executor error {type(exc).__name__}: {exc}", kind="crash")
+        wall = engine_wall_time(result, self._starts.attempt_time(fut))
+        self._starts.started.pop(fut, None)
+        if result is not None:
+            self._engine_walls.append(wall)
+        self._sims_finished += 1
         outcomes = self._outcomes[point.id]
         outcomes[index] = result
         metric, error = None, ""
@@ -346,7 +412,7 @@ class Campaign:
                 self._best_noise = (metric.threshold, metric.threshold_rate)
         elif error:
             msg += f"; metric failed: {error}"
-        self._emit("done", f"{msg} | {self._best_text()}", point=point.id, sim=index, seed=seed, wall_s=wall,
+        self._emit("done", f"{msg} | {self._progress_text()} | {self._best_text()}", point=point.id, sim=index, seed=seed, wall_s=wall,
                    peaks_pa=result.peak_shear_stress.tolist(),
                    distance=None if metric is None else metric.value,
                    best_point=None if self._best is None else self._best[1],

@@ -139,6 +139,9 @@ class DaskExecutor:
         dask_future = client.submit(run_isolated, task, timeout, key=key, pure=False,
                                     resources={"cores": task.threads})
         result: cf.Future = cf.Future()
+        # a Dask client does not see when a worker takes a task: the campaign counts it as started
+        # once it is handed to the cluster, whose scheduler queues it
+        result.set_running_or_notify_cancel()
         with self._lock:
             self._futures.add(dask_future)
 

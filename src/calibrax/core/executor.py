@@ -9,6 +9,7 @@ this machine; ``dask`` (:mod:`calibrax.core.dask_executor`) runs them on Dask wo
 from __future__ import annotations
 
 import concurrent.futures as cf
+import math
 import os
 import pickle
 import signal
@@ -20,7 +21,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Callable, Iterable, Protocol, runtime_checkable
 
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.errors import CalibraxError, SimulationFailed
@@ -44,7 +45,9 @@ class SimulationTask:
 
 @runtime_checkable
 class Executor(Protocol):
-    """Runs :class:`SimulationTask` s; each future gives a ShearTestResult or raises SimulationFailed."""
+    """Runs :class:`SimulationTask` s; each future gives a ShearTestResult or raises SimulationFailed,
+    and reports ``running()`` once a worker has taken its task (the campaign logs the start then,
+    not at submission)."""
 
     name: str
 
@@ -77,6 +80,46 @@ def run_task(task: SimulationTask) -> ShearTestResult:
         raise SimulationFailed(f"{task.simulator} returned non-finite peaks {result.peak_shear_stress.tolist()}",
                                kind="nan")
     return result
+
+
+class StartTracker:
+    """Notes when a worker takes each submitted future (it reports ``running()``): a simulation
+    waiting in the queue has not started. ``on_start(future)`` is called once per future, before
+    :meth:`wait` returns it finished, so that a start is never logged after its end."""
+
+    def __init__(self, on_start: Callable[[cf.Future], None]) -> None:
+        self.on_start = on_start
+        self.started: dict[cf.Future, float] = {}  # future → time.monotonic() when it was seen started
+
+    def _note(self, futures: Iterable[cf.Future]) -> None:
+        for fut in futures:
+            if fut not in self.started and (fut.running() or fut.done()):
+                self.started[fut] = time.monotonic()
+                self.on_start(fut)
+
+    def wait(self, futures: Iterable[cf.Future], timeout: float = 5.0) -> set[cf.Future]:
+        """The futures of ``futures`` that finished within ``timeout`` s (polled every 0.5 s while
+        one of them is still queued, to see it start)."""
+        futures = set(futures)
+        self._note(futures)
+        queued = any(fut not in self.started for fut in futures)
+        done, _ = cf.wait(futures, timeout=0.5 if queued else timeout, return_when=cf.FIRST_COMPLETED)
+        self._note(done)
+        return done
+
+    def attempt_time(self, fut: cf.Future) -> float:
+        """Seconds since a worker took ``fut`` (0 if it was never seen started)."""
+        return time.monotonic() - self.started.get(fut, time.monotonic())
+
+
+def engine_wall_time(result: ShearTestResult | None, attempt_s: float) -> float:
+    """The wall time to store for a simulation, s: the engine's own (its provenance) when it gave
+    one, else the attempt's (a failure), never the wait in the executor's queue."""
+    if result is not None:
+        wall = result.provenance.wall_time
+        if isinstance(wall, (int, float)) and math.isfinite(wall) and wall > 0:
+            return float(wall)
+    return attempt_s
 
 
 class _Running:

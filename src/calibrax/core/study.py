@@ -14,13 +14,12 @@ import hashlib
 import json
 import logging
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from calibrax.core.executor import SimulationTask
+from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
 from calibrax.core.features import result_features, step_mean
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
 from calibrax.core.store import CampaignStore
@@ -148,6 +147,25 @@ class CaseOutcome:
         return out
 
 
+def _record(store: CampaignStore, kind: str, cases: list[StudyCase], where: tuple[int, int, int], fut: cf.Future,
+            attempt_s: float) -> None:
+    """Store one finished simulation of a study (a result or a failure) and log it."""
+    i, pid, index = where
+    seed = cases[i].seeds[index]
+    try:
+        result = fut.result()
+    except SimulationFailed as exc:
+        store.add_simulation(pid, index, seed, None, reason=exc.reason, log_tail=exc.log_tail, kind=exc.kind,
+                             wall_time=attempt_s)
+        log.warning("%s: %s on %s, seed %d FAILED [%s]: %s", kind, cases[i].label, cases[i].backend, seed,
+                    exc.kind, exc.reason)
+        return
+    wall = engine_wall_time(result, attempt_s)
+    store.add_simulation(pid, index, seed, result, wall_time=wall)
+    log.info("%s: %s on %s, seed %d done in %.0f s: peaks %s Pa", kind, cases[i].label, cases[i].backend, seed, wall,
+             [round(float(t)) for t in result.peak_shear_stress])
+
+
 def study_hash(cases: list[StudyCase]) -> str:
     blob = json.dumps([[c.label, c.backend, c.spec.spec_hash(), list(c.seeds)] for c in cases], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
@@ -165,29 +183,26 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
                 values = np.array([list(c.coords.values()) or [float(i)]])
                 store.add_batch(i, np.zeros_like(values), values, names, [list(c.seeds)], f"{c.backend}|{c.label}", None)
         records = store.points()
-        futures: dict[cf.Future, tuple[int, int, int, float]] = {}
+        futures: dict[cf.Future, tuple[int, int, int]] = {}
+
+        def on_start(fut: cf.Future) -> None:
+            i, _, index = futures[fut]
+            log.info("%s: %s on %s, seed %d starts in %s", kind, cases[i].label, cases[i].backend,
+                     cases[i].seeds[index], workdir / f"{kind}-{records[i].id:04d}-s{index}")
+
+        starts = StartTracker(on_start)
         for i, (c, p) in enumerate(zip(cases, records)):
             for s in p.sims:
                 if s.status == "pending":
                     spec = c.spec.replace(numerics={"seed": s.seed})
                     task = SimulationTask(p.id, c.backend, spec, workdir / f"{kind}-{p.id:04d}-s{s.index}")
-                    log.info("%s: %s on %s, seed %d starts", kind, c.label, c.backend, s.seed)
-                    futures[executor.submit(task)] = (i, p.id, s.index, time.monotonic())
+                    futures[executor.submit(task)] = (i, p.id, s.index)
         try:
-            for fut in cf.as_completed(futures):
-                i, pid, index, t0 = futures[fut]
-                seed = cases[i].seeds[index]
-                try:
-                    result = fut.result()
-                    store.add_simulation(pid, index, seed, result, wall_time=time.monotonic() - t0)
-                    log.info("%s: %s on %s, seed %d done in %.0f s: peaks %s Pa", kind, cases[i].label,
-                             cases[i].backend, seed, time.monotonic() - t0,
-                             [round(float(t)) for t in result.peak_shear_stress])
-                except SimulationFailed as exc:
-                    store.add_simulation(pid, index, seed, None, reason=exc.reason, log_tail=exc.log_tail,
-                                         kind=exc.kind, wall_time=time.monotonic() - t0)
-                    log.warning("%s: %s on %s, seed %d FAILED [%s]: %s", kind, cases[i].label, cases[i].backend,
-                                seed, exc.kind, exc.reason)
+            remaining = set(futures)
+            while remaining:
+                for fut in starts.wait(remaining):
+                    remaining.discard(fut)
+                    _record(store, kind, cases, futures[fut], fut, starts.attempt_time(fut))
         except BaseException:
             executor.shutdown(cancel=True)
             raise
