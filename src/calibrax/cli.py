@@ -173,28 +173,9 @@ def _cmd_status(args: argparse.Namespace) -> int:
                  "failures": [s.reason for s in p.sims if s.status == "failed"]} for p in points]
         print(json.dumps({"points": rows, "best_id": summary.best_id}, default=float, indent=1))
         return 0
-    names = points[0].names if points else []
-    head = f"{'id':>3} {'batch':>5} {'source':<16} " + " ".join(f"{n[:14]:>14}" for n in names) + \
-        f" {'status':<8} {'C [Pa]':>9} {'AIF [°]':>8} {'distance':>15} {'wall [s]':>9}"
-    print(head)
-    print("-" * len(head))
-    for p in points:
-        f = p.metric.features if p.metric else {}
-        dist = f"{p.metric.value:.3g} ± {p.metric.uncertainty:.2g}" if p.metric else ""
-        wall = sum(s.wall_time for s in p.sims if math.isfinite(s.wall_time))
-        mark = " *" if p.id == summary.best_id else ""
-        print(f"{p.id:>3} {p.batch:>5} {p.acquisition[:16]:<16} " + " ".join(f"{v:>14.4g}" for v in p.natural) +
-              f" {p.status:<8} {f.get('cohesion_sim', float('nan')):>9.0f} {f.get('aif_sim', float('nan')):>8.1f}"
-              f" {dist:>15} {wall:>9.1f}{mark}")
-        for s in p.sims:
-            if s.status == "failed":
-                print(f"      sim {s.index} failed [{s.kind}]: {s.reason}")
-    print(f"\n{summary.points} points: {summary.done} done, {summary.failed} failed, "
-          f"{summary.points - summary.done - summary.failed} pending")
-    if summary.best_id is not None:
-        params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
-        print(f"best (*): point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
-              f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
+    from calibrax.report.status import status_text
+
+    print(status_text(store))
     return 0
 
 

@@ -85,6 +85,9 @@ def test_sigterm_stops_cleanly_and_rerun_repeats_nothing(tmp_path):
     before = {(p.id, s.index): s.seed for p in CampaignStore(store_path).points() for s in p.sims if s.status == "done"}
     stamps = {k: CampaignStore(store_path).result(*k).provenance.wall_time for k in before}
     assert len(before) >= 2
+    status = subprocess.run([sys.executable, "-m", "calibrax.cli", "status", str(store_path)], cwd=ROOT, env=env,
+                            capture_output=True, text=True, timeout=120)
+    assert " interrupted" in status.stdout and "run again" in status.stdout, status.stdout  # not "pending"
     again = subprocess.run([sys.executable, "-m", "calibrax.cli", "run", str(path)], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr

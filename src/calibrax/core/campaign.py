@@ -97,6 +97,11 @@ def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
     return (campaign_seed * 1_000_003 + point_id * 1_000 + index) % EXPERIMENT_SEED_BASE
 
 
+def simulation_workdir(workdir: Path, point_id: int, index: int) -> Path:
+    """The work folder of simulation ``index`` of point ``point_id`` under the campaign's ``workdir``."""
+    return Path(workdir) / f"p{point_id:06d}-s{index}"
+
+
 def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> ShearCellSpec:
     """The spec of one simulation: calibrated material values and the seed set on the base spec."""
     return base.replace(material=dict(params), numerics={"seed": int(seed)})
@@ -361,7 +366,7 @@ class Campaign:
                 self._outcomes[p.id][s.index] = None
         for s in pending:
             task = SimulationTask(p.id, cfg.simulator, point_spec(cfg.spec, p.params(), s.seed),
-                                  cfg.workdir / f"p{p.id:06d}-s{s.index}")
+                                  simulation_workdir(cfg.workdir, p.id, s.index))
             self._emit("queued", f"point {p.id} sim {s.index}: queued for {cfg.simulator} (seed {s.seed})",
                        level=logging.DEBUG, point=p.id, sim=s.index, seed=s.seed)
             self._inflight[executor.submit(task)] = _InFlight(p, s.index, s.seed, task.workdir)

@@ -27,6 +27,10 @@ CALIBRATABLE: dict[str, tuple[float, float]] = {
 }
 
 
+#: the unit of each calibratable parameter, for tables and axes ("-": dimensionless)
+UNITS: dict[str, str] = {"youngs_modulus": "Pa", "sliding_friction": "-", "rolling_friction": "-", "restitution": "-",
+                         "poisson_ratio": "-", "density": "kg/m³", "cohesion_energy_density": "J/m³"}
+
 @dataclass(frozen=True)
 class Parameter:
     """One calibrated parameter: ``low`` < ``high`` in natural units, optionally log-scaled."""

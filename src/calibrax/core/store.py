@@ -150,6 +150,20 @@ class CampaignStore:
         if problem:
             raise StoreError(f"store {self.path}: {problem}")
 
+    def in_use(self) -> bool:
+        """True while a campaign holds this store's lock (it is running now); creates nothing."""
+        try:
+            fd = os.open(self.lock_path, os.O_RDONLY)
+        except OSError:
+            return False
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+        finally:
+            os.close(fd)
+        return False
+
     def acquire(self, search_hash: str | None = None) -> "CampaignStore":
         """Take the store's exclusive lock or raise :class:`StoreLockedError`. With ``search_hash``,
         :meth:`check` runs first, so that a refused store is refused before its lock file is made;

@@ -1,0 +1,118 @@
+"""``calibrax status``: a campaign store as a table a user can read at a glance.
+
+Every parameter's column carries its unit and its whole name; a pending point says whether its
+simulations are running, queued or interrupted (from the store's lock and each simulation's
+``attempts.log``); the footer gives the experiment's targets and the distance's scales, so that a
+large distance can be read (a tight experiment makes every point far away).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from calibrax.core.campaign import Campaign, simulation_workdir
+from calibrax.core.executor import ATTEMPTS_LOG
+from calibrax.core.parameters import UNITS
+from calibrax.core.store import CampaignStore, PointRecord
+
+#: display name and unit of the metric's features named ``<stem>_exp`` (others: the stem, no unit)
+FEATURE_LABELS = {"cohesion": ("C", " Pa"), "aif": ("AIF", "°"), "bulk_density": ("bulk density", " kg/m³")}
+
+
+def _with_unit(name: str, value: float) -> str:
+    """"youngs_modulus = 1.493e+10 Pa", "sliding_friction = 0.574" (no unit for a dimensionless one)."""
+    unit = UNITS.get(name, "-")
+    return f"{name} = {value:.4g}" + ("" if unit == "-" else f" {unit}")
+
+
+def simulation_state(store: CampaignStore, point: PointRecord, index: int, live: bool) -> str:
+    """"done", "failed", "running", "queued" (a live campaign has not started it yet) or
+    "interrupted" (the campaign stopped before it finished; a new run resumes it)."""
+    sim = point.sims[index]
+    if sim.status != "pending":
+        return sim.status
+    if not live:
+        return "interrupted"
+    workdir = store.config().get("workdir")
+    if not workdir:  # a crosscheck's or converge's store: its work folders are named otherwise
+        return "in flight"
+    log = simulation_workdir(Path(workdir), point.id, index) / ATTEMPTS_LOG
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    return "running" if lines and " started " in f"{lines[-1]} " else "queued"
+
+
+def point_state(store: CampaignStore, point: PointRecord, live: bool) -> str:
+    """The point's state: done or failed ("no metric": simulated, but no distance, as in a
+    crosscheck's store), else the most advanced of its simulations' states."""
+    if point.status == "failed" and all(s.status == "done" for s in point.sims):
+        return "no metric"
+    if point.status != "pending":
+        return point.status
+    states = {simulation_state(store, point, s.index, live) for s in point.sims}
+    return next((s for s in ("running", "in flight", "queued", "interrupted") if s in states), "pending")
+
+
+def _fmt(value: float, spec: str) -> str:
+    return format(value, spec) if math.isfinite(value) else ""
+
+
+def status_text(store: CampaignStore) -> str:
+    """The table, the counts, the best point and the experiment's targets, as printed."""
+    points = store.points()
+    summary = Campaign.summary(store)
+    live = store.in_use()
+    names = points[0].names if points else []
+    labels = [f"{n} [{UNITS.get(n, '-')}]" for n in names]
+    widths = [max(len(label), 10) for label in labels]
+    head = (f"{'id':>3} {'batch':>5} {'source':<16} " + " ".join(f"{lab:>{w}}" for lab, w in zip(labels, widths))
+            + f" {'status':<11} {'C [Pa]':>9} {'AIF [°]':>8} {'distance':>15} {'wall [s]':>9}")
+    lines = [head, "-" * len(head)]
+    states = {}
+    for p in points:
+        states[p.id] = point_state(store, p, live)
+        f = p.metric.features if p.metric else {}
+        dist = f"{p.metric.value:.3g} ± {p.metric.uncertainty:.2g}" if p.metric else ""
+        walls = [s.wall_time for s in p.sims if math.isfinite(s.wall_time)]
+        mark = " *" if p.id == summary.best_id else ""
+        lines.append(f"{p.id:>3} {p.batch:>5} {p.acquisition[:16]:<16} "
+                     + " ".join(f"{v:>{w}.4g}" for v, w in zip(p.natural, widths))
+                     + f" {states[p.id]:<11} {_fmt(f.get('cohesion_sim', math.nan), '.0f'):>9}"
+                     f" {_fmt(f.get('aif_sim', math.nan), '.1f'):>8} {dist:>15}"
+                     f" {_fmt(sum(walls), '.1f') if walls else '':>9}{mark}")
+        for s in p.sims:
+            if s.status == "failed":
+                lines.append(f"      sim {s.index} failed [{s.kind}]: {s.reason}")
+    counts = {k: sum(1 for v in states.values() if v == k)
+              for k in ("done", "no metric", "failed", "running", "in flight", "queued", "interrupted")}
+    text = ", ".join(f"{n} {k}" for k, n in counts.items() if n or k in ("done", "failed"))
+    lines.append(f"\n{len(points)} points: {text}" + ("; the campaign is running" if live else ""))
+    if counts["interrupted"]:
+        lines.append("interrupted simulations run again when the campaign is run again (calibrax run CAMPAIGN.yaml)")
+    if summary.best_id is not None:
+        params = ", ".join(_with_unit(k, v) for k, v in summary.best_params.items())
+        lines.append(f"best (*): point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
+                     f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
+    lines.extend(experiment_lines(points))
+    return "\n".join(lines)
+
+
+def experiment_lines(points: list[PointRecord]) -> list[str]:
+    """The experiment's values of the metric's features and the scales the distance divides by
+    (d² = Σ ((sim − exp) / scale)²), from the first point with a metric; [] if none has one."""
+    f = next((p.metric.features for p in points if p.metric is not None), None)
+    if not f:
+        return []
+    targets, scales = [], []
+    for key in [k for k in f if k.endswith("_exp")]:
+        stem = key[: -len("_exp")]
+        label, unit = FEATURE_LABELS.get(stem, (stem, ""))
+        targets.append(f"{label} = {f[key]:.4g}{unit}")
+        scale = f.get(f"scale_{stem}", f.get(f"{stem}_scale"))
+        if scale is not None and math.isfinite(scale):
+            scales.append(f"{label} {scale:.4g}{unit}")
+    out = [f"experiment: {', '.join(targets)}"]
+    if scales:
+        out.append(f"distance: d² = Σ ((sim − exp) / scale)² with scales {', '.join(scales)} "
+                   "(a tight experiment has small scales, and every point is far from it)")
+    return out
