@@ -32,7 +32,7 @@ def test_campaign_runs_to_the_end_on_the_real_engine(tmp_path, simulator, iterat
         [(p.id, [s.status for s in p.sims]) for p in points]
     assert f"{simulator}" in proc.stderr and "seed" in proc.stderr
     again = calibrax_cli("run", str(path), env=env, timeout=120)
-    assert again.returncode == 0 and "resuming" in again.stderr and f"{total} done" in again.stdout, again.stdout
+    assert again.returncode == 0 and "campaign complete" in again.stderr and f"{total} done" in again.stdout, again.stdout
     assert len(CampaignStore(tmp_path / "runs/campaign.h5").points()) == total  # nothing re-run or added
     status = calibrax_cli("status", str(tmp_path / "runs/campaign.h5"), env=env)
     assert status.returncode == 0 and "best" in status.stdout.lower(), status.stdout
