@@ -23,7 +23,12 @@ run: setup
 test: setup
 	$(PY) -m pytest -q --durations=25
 
-setup: engines $(STAMP)
+setup: engines $(STAMP) $(NUMBA_CACHE_DIR)/.compiled
+
+# numba_dem's kernels compiled once here, not by each of the first simulations side by side
+$(NUMBA_CACHE_DIR)/.compiled: $(STAMP)
+	$(PY) -m calibrax_numba_dem.warmup
+	mkdir -p $(NUMBA_CACHE_DIR) && touch $@
 
 engines:
 	@if ! command -v liggghts >/dev/null || ! command -v yade >/dev/null || ! command -v slurmctld >/dev/null; then \
