@@ -36,6 +36,7 @@ _EXPORTS = {
     "calibrax.plugins.hookspecs": ["hookimpl"],
     "calibrax.plugins.manager": ["get_manager"],
     "calibrax.report": ["build_report"],
+    "calibrax.report.trials": ["trial_rows", "write_trials_csv"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 __all__ = ["__version__", *_WHERE]

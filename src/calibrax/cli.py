@@ -20,6 +20,7 @@ examples:
   calibrax run examples/quickstart.yaml            run (or resume) a campaign
   calibrax run examples/quickstart.yaml --check    validate it and print the resolved settings
   calibrax status runs/quickstart.h5               points, results and the best point so far
+  calibrax export runs/quickstart.h5               trials as CSV (runs/quickstart-trials.csv)
   calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
   calibrax plugins                                 registered simulators, metrics, acquisitions…
 """
@@ -54,6 +55,16 @@ def _parser() -> argparse.ArgumentParser:
                                         "distance, wall time; then the best point.")
     status.add_argument("store", type=Path, help="the campaign's HDF5 store")
     status.add_argument("--json", action="store_true", help="print machine-readable JSON instead of a table")
+
+    export = sub.add_parser("export", help="write a campaign's trials as CSV (one row per point)",
+                            description="One row per parameter point: id, batch, source, state, the parameters "
+                                        "(with units in the column names), distance and its s.d., the noise "
+                                        "threshold and whether the point is within it, simulated and measured C "
+                                        "and AIF, seeds, the engines' wall time, the mean peak τ per σ and the "
+                                        "failures. Empty cells where nothing is known.")
+    export.add_argument("store", type=Path, help="the campaign's HDF5 store")
+    export.add_argument("-o", "--output", type=Path, metavar="FILE",
+                        help="CSV file to write (default: STORE-trials.csv next to the store)")
 
     cross = sub.add_parser("crosscheck", help="run the same shear test on several backends and compare",
                            description="Run the campaign's shear-test spec at the same parameter points on each "
@@ -176,6 +187,16 @@ def _cmd_status(args: argparse.Namespace) -> int:
     from calibrax.report.status import status_text
 
     print(status_text(store))
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from calibrax.core.store import CampaignStore
+    from calibrax.report.trials import write_trials_csv
+
+    store = CampaignStore(args.store)
+    out = args.output or args.store.with_name(f"{args.store.stem}-trials.csv")
+    print(f"written: {write_trials_csv(store, out)}")
     return 0
 
 
@@ -337,7 +358,8 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
     warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
-    handlers = {"run": _cmd_run, "status": _cmd_status, "report": _cmd_report, "crosscheck": _cmd_crosscheck,
+    handlers = {"run": _cmd_run, "status": _cmd_status, "export": _cmd_export, "report": _cmd_report,
+                "crosscheck": _cmd_crosscheck,
                 "converge": _cmd_converge, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)

@@ -3,9 +3,11 @@ with failed simulations; `calibrax run --json` streams machine-readable progress
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 
+from calibrax import trial_rows
 from tests.conftest import calibrax_cli, double_env, write_double_campaign
 
 FIGURES = ("cartography", "yield_loci", "shear_curves", "surrogate", "convergence")
@@ -52,6 +54,17 @@ def test_report_of_a_store_with_failed_simulations(tmp_path):
     assert "FAILED" in proc.stderr and "double told to fail" in proc.stderr
     status = calibrax_cli("status", str(tmp_path / "runs/double.h5"))
     assert "failed [unstable]" in status.stdout
+    # the trials as CSV (issue 21): one row per point, failures as data, empty cells where unknown
+    exported = calibrax_cli("export", str(tmp_path / "runs/double.h5"), "-o", str(tmp_path / "trials.csv"))
+    assert exported.returncode == 0 and "written:" in exported.stdout, exported.stderr
+    with open(tmp_path / "trials.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(trial_rows(tmp_path / "runs/double.h5")) == 6 + 2
+    failed = [r for r in rows if r["state"] == "failed"]
+    assert failed and all("double told to fail" in r["failures"] and r["distance"] == "" for r in failed), failed
+    done = [r for r in rows if r["state"] == "done"]
+    assert done and all(float(r["distance"]) >= 0 and float(r["youngs_modulus_Pa"]) >= 5e9 for r in done)
+    assert [r["best"] for r in rows].count("True") == 1 and "peak_tau_9kPa_Pa" in rows[0]
     rep = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "-o", str(tmp_path / "r"))
     assert rep.returncode == 0, rep.stderr
     page, summary = check_report(tmp_path / "r")
