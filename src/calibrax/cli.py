@@ -98,7 +98,8 @@ def _parser() -> argparse.ArgumentParser:
     conv.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
 
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
-                            description="Write index.html (self-contained page), summary.md and PNG/SVG figures: "
+                            description="Write index.html, summary.md and PNG/SVG figures into one folder (the page shows the "
+                                        "figure files beside it: share the folder, not the page alone): "
                                         "C–AIF cartography, yield loci, τ curves of the best point, surrogate "
                                         "maps with an identifiability statement, convergence, failures.")
     report.add_argument("store", type=Path, help="the campaign's HDF5 store")
@@ -356,6 +357,7 @@ def main(argv: list[str] | None = None) -> int:
     quiet = getattr(args, "quiet", False) or (args.command == "run" and args.json)
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO, stream=sys.stderr,
                         format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
+    logging.getLogger("matplotlib").setLevel(logging.WARNING)  # e.g. "generated new fontManager" on a fresh machine
     warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
     handlers = {"run": _cmd_run, "status": _cmd_status, "export": _cmd_export, "report": _cmd_report,

@@ -1,4 +1,5 @@
-"""``calibrax report``: a self-contained HTML page, PNG/SVG figures and a Markdown summary."""
+"""``calibrax report``: an HTML page with its PNG/SVG figures beside it (as files in the same
+folder: copy the folder to share it) and a Markdown summary."""
 
 from __future__ import annotations
 
@@ -93,7 +94,8 @@ def _html(data: CampaignData, files: dict[str, list[str]], statement: str) -> st
              f"<h1>Campaign {e(cfg['name'])}</h1>",
              f"<p>Simulator <b>{e(cfg['simulator'])}</b>, acquisition <b>{e(cfg['acquisition']['name'])}</b> "
              f"(q = {cfg['acquisition']['q']}); {len(data.points)} points, {len(data.done)} finished, "
-             f"<span class='failed'>{len(data.failures)} failed simulation(s)</span>. Store: <code>{e(str(data.store))}</code></p>",
+             + (f"<span class='failed'>{len(data.failures)} failed simulation(s)</span>" if data.failures
+                else "no failed simulation") + f". Store: <code>{e(str(data.store))}</code></p>",
              f"<p><b>{e(_best_line(data))}</b></p>", f"<p>{e(statement)}</p>"]
     for key, names in files.items():
         png = [n for n in names if n.endswith(".png")]
