@@ -146,8 +146,13 @@ def shear_curves(data: CampaignData, folder: Path) -> list[str]:
         ax.set_title(f"σ = {step.target_stress / 1e3:.0f} kPa")
         ax.set_xlabel("head rotation [rad]")
         ax.grid(alpha=0.3)
+        ax.text(0.97, 0.04, f"peak {result.peak_shear_stress[k]:.0f} Pa", transform=ax.transAxes, ha="right",
+                fontsize=8, color="tab:green")
     axes[0][0].set_ylabel("stress [kPa]")
     axes[0][0].legend(fontsize=7)
+    if data.experiment is None or not data.experiment.curves:
+        fig.text(0.5, 0.01, "the experiment has no τ curves (only its peaks): a curves CSV adds them "
+                 "(README, Experiment files)", ha="center", fontsize=8, color="0.3")
     fig.suptitle(f"Shear steps of the best point {best.id} (seed {result.provenance.seed}, {result.provenance.backend})")
     return _save(fig, folder, "shear_curves")
 
@@ -239,12 +244,15 @@ def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean
 
 
 def convergence(data: CampaignData, folder: Path) -> list[str]:
-    """Best distance against the number of simulations, and wall time per simulation."""
+    """Best distance against the points simulated, and the engines' wall time per point; both
+    panels number points as the store does (from 0), with whole-number ticks."""
+    from matplotlib.ticker import MaxNLocator
+
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     order = sorted(data.points, key=lambda p: p.id)
     dist = np.array([p.distance for p in order])
     best = np.fmin.accumulate(np.where(np.isfinite(dist), dist, np.inf))
-    n = np.arange(1, len(order) + 1)
+    n = np.array([p.id for p in order])
     ax1.plot(n, np.where(np.isfinite(best), best, np.nan), "-", color="k", label="best so far")
     ax1.plot(n[np.isfinite(dist)], dist[np.isfinite(dist)], "o", color="tab:blue", ms=4, label="each point")
     failed = ~np.isfinite(dist)
@@ -252,13 +260,16 @@ def convergence(data: CampaignData, folder: Path) -> list[str]:
         top = np.nanmax(dist) if np.isfinite(dist).any() else 1.0
         ax1.plot(n[failed], np.full(failed.sum(), top), "x", color="r", ms=8, label="failed")
     ax1.set_yscale("log")
-    ax1.set_xlabel("points simulated")
+    ax1.set_xlabel("point (in the order simulated)")
     ax1.set_ylabel("distance to experiment")
     ax1.grid(alpha=0.3, which="both")
     ax1.legend(fontsize=8)
     colors = ["tab:red" if p.record.status == "failed" else "tab:blue" for p in order]
-    ax2.bar([p.id for p in order], [p.wall_time for p in order], color=colors)
-    ax2.set_xlabel("point")
-    ax2.set_ylabel("wall time, all seeds [s]")
-    ax2.set_title("red: failed", fontsize=9)
+    ax2.bar(n, [p.wall_time for p in order], color=colors)
+    ax2.set_xlabel("point (in the order simulated)")
+    ax2.set_ylabel("engine wall time, all seeds [s]")
+    if "tab:red" in colors:
+        ax2.set_title("red: failed", fontsize=9)
+    for ax in (ax1, ax2):
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     return _save(fig, folder, "convergence")
