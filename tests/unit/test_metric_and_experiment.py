@@ -95,7 +95,8 @@ def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
     (tmp_path / "c.csv").write_text("replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n"
                                    "1,9000,0.01,2000\n1,9000,0.02,5200\n1,9000,0.03,4800\n")
     (tmp_path / "e.yaml").write_text("name: full\nsource: bench FT4, 2026-11-01\npoints: p.csv\ncurves: c.csv\n"
-                                     "wall_friction_angle_deg: 11.5\n")
+                                     "wall_friction_angle_deg: 11.5\n"
+                                     "material: {sliding_friction: 0.35, youngs_modulus: 2.0e+10}\n")
     exp = load_experiment(tmp_path / "e.yaml")
     assert exp.measured_normal_stress[0] == 9150 and math.isnan(exp.measured_normal_stress[3])
     np.testing.assert_allclose(exp.bulk_density, [1452, 1452, 1440, 1440])  # spread to the replicate's rows
@@ -108,6 +109,8 @@ def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
     np.testing.assert_array_equal(back.bulk_density, exp.bulk_density)
     np.testing.assert_array_equal(back.measured_normal_stress, exp.measured_normal_stress)
     assert back.wall_friction_angle_deg == 11.5
+    # the known material (a pseudo-experiment's truth, which the report marks) is kept too
+    assert exp.material == back.material == {"sliding_friction": 0.35, "youngs_modulus": 2.0e10}
     # one density for every replicate from the header instead
     (tmp_path / "e2.yaml").write_text("points: p.csv\nbulk_density_kg_m3: 1500\n")
     assert np.all(load_experiment(tmp_path / "e2.yaml").bulk_density == 1500)
@@ -127,6 +130,8 @@ def test_physically_impossible_points_are_refused(tmp_path, change, message):
     ("points: p.csv\nwall_friction_angle_deg: 95\n", "wall_friction_angle_deg"),
     ("points: p.csv\nbulk_density_kg_m3: heavy\n", "bulk_density_kg_m3"),
     ("points: p.csv\nsource: [1, 2]\n", "source"),
+    ("points: p.csv\nmaterial: {sliding_friction: low}\n", "material"),
+    ("points: p.csv\nmaterial: [0.35]\n", "material"),
 ])
 def test_bad_header_values_name_the_key(tmp_path, header, key):
     (tmp_path / "p.csv").write_text(FULL_POINTS)

@@ -24,6 +24,8 @@ Files (all UTF-8, lines starting with ``#`` are comments — use them to say whe
       bulk_density_kg_m3: 1470        # optional: one density for every replicate (else the column)
       wall_friction_angle_deg: 11.5   # optional: the FT4 wall friction test against the vessel's material
       cell: {preset: tiny}            # optional: the cell it was measured in, for the record
+      material: {sliding_friction: 0.35, youngs_modulus: 2.0e10}   # optional: known material values;
+                                      # a pseudo-experiment's are its truth, which the report marks
 """
 
 from __future__ import annotations
@@ -69,6 +71,8 @@ class Experiment:
             kg/m³ (NaN where not measured).
         wall_friction_angle_deg: the FT4 wall friction angle against the vessel's material,
             degrees (NaN where not measured).
+        material: the header's known material values ({field: value}, SI units): for a
+            pseudo-experiment, the parameters that made it (its truth).
     """
 
     name: str
@@ -85,6 +89,7 @@ class Experiment:
     preshear_tau: np.ndarray | None = None
     bulk_density: np.ndarray | None = None
     wall_friction_angle_deg: float = float("nan")
+    material: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal_stress).size
@@ -260,10 +265,16 @@ def load_experiment(path: str | Path) -> Experiment:
         wall_angle = _positive_number(path, header, "wall_friction_angle_deg")
         if wall_angle >= 90:
             raise ExperimentError(f"{path}: wall_friction_angle_deg", f"must lie in (0, 90) degrees, got {wall_angle}")
+    material = header.get("material") or {}
+    if not isinstance(material, dict) or not all(
+            isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for k, v in material.items()):
+        raise ExperimentError(f"{path}: material", f"must map material fields to numbers, got {material!r}")
     source = str(header.get("source") or exp.source)
     files = exp.files + ((str(path.parent / header["curves"]),) if header.get("curves") else ()) + (str(path),)
     return dataclasses.replace(exp, preshear_stress=float(pre), curves=curves, source=source, files=files,
-                               bulk_density=density, wall_friction_angle_deg=wall_angle)
+                               bulk_density=density, wall_friction_angle_deg=wall_angle,
+                               material={k: float(v) for k, v in material.items()})
 
 
 def _positive_number(path: Path, header: dict, key: str) -> float:

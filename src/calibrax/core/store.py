@@ -381,6 +381,7 @@ def _write_experiment(group: h5py.Group, exp: Experiment) -> None:
     group.create_dataset("peak_shear_stress", data=exp.peak_shear_stress)
     group.create_dataset("replicate", data=exp.replicate)
     group.attrs["wall_friction_angle_deg"] = exp.wall_friction_angle_deg
+    group.attrs["material"] = json.dumps(exp.material)
     for key in EXPERIMENT_ARRAYS:
         group.create_dataset(key, data=np.asarray(getattr(exp, key), dtype=float))
     curves = group.create_group("curves")
@@ -399,7 +400,8 @@ def _read_experiment(group: h5py.Group) -> Experiment:
     return Experiment(str(a["name"]), group["normal_stress"][()], group["peak_shear_stress"][()],
                       group["replicate"][()], float(a["preshear_stress"]), float(a["preshear_shear_stress"]),
                       curves, str(a["source"]), tuple(json.loads(a["files"])),
-                      wall_friction_angle_deg=float(a.get("wall_friction_angle_deg", np.nan)), **optional)
+                      wall_friction_angle_deg=float(a.get("wall_friction_angle_deg", np.nan)),
+                      material=json.loads(a.get("material", "{}")), **optional)
 
 
 def _write_result(group: h5py.Group, result: ShearTestResult) -> None:

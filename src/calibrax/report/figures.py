@@ -188,6 +188,8 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     if d2 == 2:
         p1 = data.space.parameters[1]
         nat1 = scaled(p1.name, p1.from_unit(u))
+        known = data.experiment.material if data.experiment is not None else {}
+        truth = (known[p0.name], known[p1.name]) if p0.name in known and p1.name in known else None
         for ax, z, title in ((axes[0], mean, "predicted distance"), (axes[1], std, "prediction s.d.")):
             cs = ax.contourf(nat0, nat1, z.reshape(grid, grid), levels=20, cmap="viridis")
             fig.colorbar(cs, ax=ax)
@@ -201,17 +203,24 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
                     ax.plot(*xy, "*", color="w", mec="k", ms=13)
                 else:
                     ax.plot(*xy, "o", color="w", mec="k", ms=5)
-            if p0.log:
-                ax.set_xscale("log")
-                ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-                ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-            if p1.log:
-                ax.set_yscale("log")
-                ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-                ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            best = data.best.record.natural
+            ax.plot(scaled(p0.name, best[0]), scaled(p1.name, best[1]), "D", mfc="none", mec="tab:red", mew=2,
+                    ms=12, label=f"best point {data.best.id}")
+            if truth is not None:
+                ax.plot(scaled(p0.name, truth[0]), scaled(p1.name, truth[1]), "P", color="magenta", mec="k", ms=12,
+                        label="truth (the pseudo-experiment's parameters)")
+            for axis, p in ((ax.xaxis, p0), (ax.yaxis, p1)):
+                if p.log:
+                    (ax.set_xscale if axis is ax.xaxis else ax.set_yscale)("log")
+                    axis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+                    axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+                    axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel(label(p0.name))
             ax.set_ylabel(label(p1.name))
-            ax.set_title(f"{title} (white line: noise threshold d = {limit:.2g}; ★ last batch; ✕ failed)", fontsize=9)
+            line = f"white line: noise threshold d = {limit:.2g}" if np.any(inside) and not np.all(inside) else (
+                f"all within the noise threshold d = {limit:.2g}" if np.all(inside) else
+                f"none within the noise threshold d = {limit:.2g}")
+            ax.set_title(f"{title} ({line}; ★ last batch; ✕ failed)", fontsize=9)
     else:
         axes[0].plot(nat0, mean, "k-")
         axes[0].fill_between(nat0, mean - 2 * std, mean + 2 * std, alpha=0.3)
@@ -219,8 +228,18 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
         axes[1].plot(nat0, std)
         for ax in axes:
             ax.set_xlabel(label(p0.name))
+    if d2 == 2:
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, frameon=False)
     fig.suptitle("Kriging surrogate of the distance to the experiment")
-    return _save(fig, folder, "surrogate"), statement
+    fig.tight_layout(rect=(0, 0.06, 1, 1))  # room for the legend under the panels
+    return _save(fig, folder, "surrogate", layout=False), statement
+
+
+def _cell_words(data: CampaignData) -> str:
+    """" on the 'tiny' cell" when the campaign's cell names its preset, else ""."""
+    cell = data.config.get("cell")
+    preset = (cell.get("preset") or cell.get("name")) if isinstance(cell, dict) else None
+    return f" on the '{preset}' cell" if isinstance(preset, str) else ""
 
 
 def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean: np.ndarray, limit: float,
@@ -228,19 +247,30 @@ def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean
     within = (f"within the noise (d ≤ {limit:.3g}, the metric's threshold that the true parameters stay below "
               f"{rate:.0%} of the time)" if math.isfinite(rate) else f"within d ≤ {limit:.3g} (this metric states "
               "no noise threshold)")
+    n_done = len(data.done)
+    enough = 10 * data.space.dim  # the usual EGO rule of thumb: about 10 evaluations per dimension
     if not np.any(inside):
-        return (f"No parameter set is predicted {within}; the lowest predicted "
-                f"distance on the map is {mean.min():.2g}. The model cannot reach the experiment in this box, "
-                "or more simulations are needed.")
+        few = (f" With {n_done} finished points the surrogate is rough (EGO usually needs about {enough} for "
+               f"{data.space.dim} parameters): run more iterations before concluding that" if n_done < enough else
+               " Then")
+        return (f"No parameter set is predicted {within}; the lowest predicted distance on the map is "
+                f"{mean.min():.2g}.{few} the model cannot reach the experiment in this box (widen the bounds, or "
+                "look for the missing effect: README, sim-to-real gap).")
     nat = data.space.from_unit(x[inside])
     parts = []
     for j, p in enumerate(data.space.parameters[: x.shape[1]]):
         lo, hi = scaled(p.name, nat[:, j].min()), scaled(p.name, nat[:, j].max())
         parts.append(f"{label(p.name)} from {lo:.3g} to {hi:.3g}")
     share = 100.0 * inside.mean()
-    return (f"Parameters predicted {within}: " + "; ".join(parts) +
-            f" ({share:.0f} % of the searched box). A long, thin region is a valley of near-equivalent couples: "
-            "the shear test alone cannot tell them apart.")
+    text = f"Parameters predicted {within}: " + "; ".join(parts) + f" ({share:.0f} % of the searched box)."
+    if share >= 50.0:
+        return text + (f" The data do not constrain the parameters: with {n_done} simulations"
+                       f"{_cell_words(data)} the experiment's replicate "
+                       "spread and one simulation's seed noise leave most of the box as likely as the truth. More "
+                       "replicates in the experiment, more seeds per point (seeds_per_point) or a less noisy "
+                       "preset narrow it (README, How noisy each preset is); more points alone do not.")
+    return text + (" A long, thin region is a valley of near-equivalent couples: the shear test alone cannot tell "
+                   "them apart.")
 
 
 def convergence(data: CampaignData, folder: Path) -> list[str]:
