@@ -29,6 +29,12 @@ def label(name: str) -> str:
     return f"{sym} [{unit}]" if unit else sym
 
 
+def value_text(name: str, value: float) -> str:
+    """"E = 28 GPa", "μs = 0.3": a parameter's value in its display unit."""
+    sym, factor, unit = UNITS.get(name, (name, 1.0, ""))
+    return f"{sym} = {value * factor:.3g}" + (f" {unit}" if unit else "")
+
+
 def scaled(name: str, value: float | np.ndarray) -> float | np.ndarray:
     """A parameter in its display unit (E in GPa)."""
     return np.asarray(value) * UNITS.get(name, (name, 1.0, ""))[1]
@@ -58,22 +64,24 @@ def cartography(data: CampaignData, folder: Path) -> list[str]:
     fig, ax = plt.subplots(figsize=(7.5, 5.8))
     c_model, a_model = _feature_model(data, "cohesion"), _feature_model(data, "aif")
     names = data.space.names
+    centres: list[tuple[float, float]] = []  # (AIF °, C kPa) of what must be in view: lines, points, experiment
+    labels: list[tuple[float, float, str, str, int]] = []
     if c_model is not None and a_model is not None and data.space.dim >= 2:
         base = data.best.record.unit.copy() if data.best is not None else np.full(data.space.dim, 0.5)
         sweep = np.linspace(0.0, 1.0, 60)
         for j, style in ((0, "-"), (1, "--")):
             other = 1 - j
+            color = "tab:blue" if j == 0 else "tab:orange"
             for level in np.linspace(0.0, 1.0, 5):
                 x = np.tile(base, (sweep.size, 1))
                 x[:, j], x[:, other] = level, sweep
                 c, _ = c_model.predict(x)
                 a, _ = a_model.predict(x)
-                ax.plot(a, c / 1e3, style, color="tab:blue" if j == 0 else "tab:orange", lw=0.9, alpha=0.6)
-                value = data.space.parameters[j].from_unit(level)
+                ax.plot(a, c / 1e3, style, color=color, lw=0.9, alpha=0.6)
+                centres.extend(zip(a, c / 1e3))
                 end = -1 if j == 0 else 0  # iso-E labels at the high-μ end, iso-μ labels at the low-E end
-                ax.annotate(f"{UNITS.get(names[j], (names[j],))[0]}={scaled(names[j], value):.3g}",
-                            (a[end], c[end] / 1e3), fontsize=7, color="tab:blue" if j == 0 else "tab:orange",
-                            textcoords="offset points", xytext=(3, 0 if j == 0 else -9))
+                labels.append((float(a[end]), float(c[end] / 1e3),
+                               value_text(names[j], data.space.parameters[j].from_unit(level)), color, j))
         ax.plot([], [], "-", color="tab:blue", label=f"iso-{UNITS.get(names[0], (names[0],))[0]} (Kriging)")
         ax.plot([], [], "--", color="tab:orange", label=f"iso-{UNITS.get(names[1], (names[1],))[0]} (Kriging)")
     ok = [p for p in data.points if math.isfinite(p.cohesion)]
@@ -91,12 +99,44 @@ def cartography(data: CampaignData, folder: Path) -> list[str]:
         s_c, s_a = data.experiment.spread()
         ax.errorbar([locus.aif_deg], [locus.cohesion / 1e3], xerr=[np.nan_to_num(s_a)], yerr=[np.nan_to_num(s_c) / 1e3],
                     fmt="s", color="tab:red", ms=8, capsize=4, label=f"experiment {data.experiment.name} (±1 replicate s.d.)")
+        centres.append((locus.aif_deg, locus.cohesion / 1e3))
+    centres.extend((p.aif, p.cohesion / 1e3) for p in ok)
+    _frame(ax, centres)
+    _place_labels(ax, labels)
     ax.set_xlabel("angle of internal friction AIF [°]")
     ax.set_ylabel("cohesion C [kPa]")
     ax.set_title("C–AIF cartography (numbers: order in which points were simulated)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     return _save(fig, folder, "cartography")
+
+
+def _frame(ax: plt.Axes, centres: list[tuple[float, float]], pad: float = 0.12) -> None:
+    """Limits that hold every centre (points, experiment, iso-lines) with a margin, whatever the
+    error bars: one point's wide bar no longer sets the range and squashes the rest into a band."""
+    xy = np.array([c for c in centres if np.all(np.isfinite(c))], dtype=float).reshape(-1, 2)
+    if len(xy) == 0:
+        return
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.maximum(hi - lo, np.array([2.0, 0.5]))  # at least 2° and 0.5 kPa
+    ax.set_xlim(lo[0] - pad * span[0], hi[0] + pad * span[0])
+    ax.set_ylim(lo[1] - pad * span[1], hi[1] + pad * span[1])
+
+
+def _place_labels(ax: plt.Axes, labels: list[tuple[float, float, str, str, int]], gap: float = 0.045) -> None:
+    """Write the iso-line labels, skipping any that would land within ``gap`` (axes fraction) of one
+    already written or outside the frame (converging lines otherwise pile their labels up)."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    placed: list[tuple[float, float]] = []
+    for x, y, text, color, j in labels:
+        fx, fy = (x - x0) / (x1 - x0), (y - y0) / (y1 - y0)
+        if not (0.0 <= fx <= 0.92 and 0.02 <= fy <= 0.98):
+            continue
+        if any(abs(fx - px) < 2 * gap and abs(fy - py) < gap for px, py in placed):
+            continue
+        placed.append((fx, fy))
+        ax.annotate(text, (x, y), fontsize=7, color=color, textcoords="offset points",
+                    xytext=(3, 0 if j == 0 else -9))
 
 
 def yield_loci(data: CampaignData, folder: Path, n_best: int = 3) -> list[str]:
