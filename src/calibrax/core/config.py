@@ -250,6 +250,10 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         if key not in raw:
             raise ConfigError(key, f"is required: {ROOT_KEYS[key]}")
     name = _text("name", raw["name"])
+    if "description" in raw and not isinstance(raw["description"], str):
+        # free text: a list or a number is a mistake, not something to drop without a word
+        raise ConfigError("description", f"must be text, got {type(raw['description']).__name__} "
+                                         f"{raw['description']!r}")
     simulator, sim_options = _named("simulator", raw["simulator"], "simulator")
     if sim_options:
         raise ConfigError(f"simulator.{sorted(sim_options)[0]}", "simulators take no options here; "
