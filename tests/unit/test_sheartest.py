@@ -164,3 +164,27 @@ def test_layer_spin_is_the_mean_angular_velocity_of_the_layer():
     assert np.isnan(layer_spin(x, v, 0.02, 0.03))
     spec = ShearCellSpec.preset("tiny")
     assert base_layer_bounds(spec) == pytest.approx((spec.geometry.rib_height, spec.geometry.rib_height + 2 * spec.radius))
+
+
+def test_a_locus_whose_peaks_fall_with_sigma_is_flagged():
+    from calibrax.core.sheartest import locus_warning
+
+    sigma = np.array([9000.0, 8000.0, 7000.0, 6000.0])
+    assert locus_warning(sigma, 1000.0 + 0.7 * sigma) is None  # cohesive-frictional: nothing to say
+    bumpy = locus_warning(sigma, np.array([6273.0, 3165.0, 4842.0, 5625.0]))  # make run's best point
+    assert bumpy.startswith("the peaks do not rise with σ (5625 Pa at 6 kPa, 4842 Pa at 7 kPa")
+    assert "AIF = " in bumpy and "seeds_per_point" in bumpy
+    assert "the peaks do not rise" in locus_warning(sigma, 9000.0 - 0.3 * sigma)  # falling: AIF < 0 too
+    assert locus_warning(sigma, np.array([5000.0, np.nan, 4000.0, 3500.0])) is None  # NaN: another check's job
+    # and a result carries it
+    from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+
+    rot = np.linspace(0.0, 0.12, 100)
+    full = lambda v: np.full(rot.size, v)  # noqa: E731
+    steps = []
+    for target, tau in zip(sigma, (4000.0, 5000.0, 6000.0, 7000.0)):  # strongest at the lowest σ
+        steps.append(StepRecord("preshear", 15000.0, rot / 5.0, rot, full(9000.0), full(15000.0), full(0.02)))
+        steps.append(StepRecord("shear", target, rot / 5.0, rot, full(tau), full(target), full(0.02)))
+    res = ShearTestResult.from_steps(ShearCellSpec.preset("tiny"), steps, [1500.0] * 4,
+                                     Provenance("hand", "-", "-", 0, 1.0, 100))
+    assert any(w.startswith("the peaks do not rise with σ") for w in res.warnings), res.warnings

@@ -560,6 +560,24 @@ def base_slip(step: "StepRecord", rotation_rate: float) -> float:
     return float(np.nanmean(spin[spin.size // 2:]) / rotation_rate)
 
 
+def locus_warning(normal_stress: np.ndarray, peak_shear_stress: np.ndarray) -> str | None:
+    """A warning when one test's yield locus is not physical: the peaks (Pa, shape (k,)) do not rise
+    with the normal stress (Pa, shape (k,)), or the fitted AIF is negative; None otherwise. At
+    affordable fidelity this is mostly seed noise, which pooling seeds averages out."""
+    sigma, tau = np.asarray(normal_stress, float), np.asarray(peak_shear_stress, float)
+    if sigma.size < 2 or not (np.all(np.isfinite(sigma)) and np.all(np.isfinite(tau))):
+        return None
+    order = np.argsort(sigma)
+    falls = bool(np.any(np.diff(tau[order]) < 0))
+    aif = YieldLocus.fit(sigma, tau).aif_deg
+    if not falls and aif >= 0:
+        return None
+    pairs = ", ".join(f"{t:.0f} Pa at {s / 1e3:g} kPa" for s, t in zip(sigma[order], tau[order]))
+    what = "the peaks do not rise with σ" if falls else "the locus falls"
+    return (f"{what} ({pairs}; AIF = {aif:.1f}°): one test's locus at this fidelity is mostly seed noise; "
+            "pool seeds (seeds_per_point) or use a finer cell (README, How noisy each preset is)")
+
+
 def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> tuple[float, int, float]:
     """The peak of a shear step: the maximum of a running mean of width ``window`` (rad).
 
@@ -701,6 +719,9 @@ class ShearTestResult:
                          f"flat base (μ = {mu_base:.3g}) can hold, so τ measures the base's friction more than the "
                          "powder's strength; give the base ribs (geometry.base_ribs) or more friction "
                          "(geometry.base_friction)")
+        odd = locus_warning(np.asarray([s.target_stress for s in shear], float), np.asarray(peaks, float))
+        if odd is not None:
+            warns.append(odd)
         i_max = max(inert, default=0.0)
         if i_max > 1e-2:
             warns.append(f"inertial number up to {i_max:.1e} > 1e-2: the shear was not quasi-static; "
