@@ -57,6 +57,8 @@ def test_report_of_a_store_with_failed_simulations(tmp_path):
     assert "FAILED" in proc.stderr and "double told to fail" in proc.stderr
     status = calibrax_cli("status", str(tmp_path / "runs/double.h5"))
     assert "failed [unstable]" in status.stdout
+    # the experiment's targets and the distance's scales, so that a large d can be read
+    assert "experiment: C = " in status.stdout and "with scales C " in status.stdout, status.stdout
     # the trials as CSV (issue 21): one row per point, failures as data, empty cells where unknown
     exported = calibrax_cli("export", str(tmp_path / "runs/double.h5"), "-o", str(tmp_path / "trials.csv"))
     assert exported.returncode == 0 and "written:" in exported.stdout, exported.stderr
@@ -73,6 +75,11 @@ def test_report_of_a_store_with_failed_simulations(tmp_path):
     page, summary = check_report(tmp_path / "r")
     assert "Failed simulations" in page and "double told to fail" in page and "double log tail" in page
     assert "## Failed simulations" in summary
+
+
+def test_report_help_says_where_the_figures_are():
+    proc = calibrax_cli("report", "--help")
+    assert proc.returncode == 0 and "self-contained" not in proc.stdout and "share the folder" in proc.stdout
 
 
 def test_report_of_a_missing_store_is_a_clear_error(tmp_path):

@@ -1,0 +1,41 @@
+"""The report's figure helpers on hand-made data (issue 21): iso-line labels carry units and never
+pile up, the cartography's frame is set by the points and not by one wide error bar, and the
+identifiability statement says when the data leave the whole box within the noise."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from calibrax.report.figures import _frame, _place_labels, value_text  # noqa: E402
+
+
+def test_values_are_written_in_their_display_unit():
+    assert value_text("youngs_modulus", 2.81e10) == "E = 28.1 GPa"
+    assert value_text("sliding_friction", 0.3) == "μs = 0.3"
+
+
+def test_the_frame_holds_every_centre_whatever_the_error_bars():
+    fig, ax = plt.subplots()
+    centres = [(0.0, 4.8), (30.0, -0.7), (60.0, -8.0)]
+    ax.errorbar([c[0] for c in centres], [c[1] for c in centres], yerr=[1.0, 40.0, 1.0], fmt="o")
+    _frame(ax, centres)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x0 < 0.0 and x1 > 60.0 and y0 < -8.0 and y1 > 4.8  # every centre inside, with a margin ...
+    assert y1 - y0 < 20.0  # ... and the ±40 kPa bar does not set the range
+    plt.close(fig)
+
+
+def test_labels_that_would_land_on_one_another_are_skipped():
+    fig, ax = plt.subplots()
+    ax.set_xlim(0, 100)
+    ax.set_ylim(0, 10)
+    labels = [(50.0, 5.0, "E = 5 GPa", "b", 0), (50.5, 5.05, "E = 8.9 GPa", "b", 0),  # on top of the first
+              (20.0, 2.0, "μs = 0.3", "r", 1), (150.0, 5.0, "E = 50 GPa", "b", 0)]   # the last outside the frame
+    _place_labels(ax, labels)
+    written = [t.get_text() for t in ax.texts]
+    assert written == ["E = 5 GPa", "μs = 0.3"], written
+    plt.close(fig)
