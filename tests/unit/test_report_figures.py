@@ -39,3 +39,27 @@ def test_labels_that_would_land_on_one_another_are_skipped():
     written = [t.get_text() for t in ax.texts]
     assert written == ["E = 5 GPa", "μs = 0.3"], written
     plt.close(fig)
+
+
+def _data(n_points: int):
+    """CampaignData with ``n_points`` finished points over (E, μs) on the tiny cell (hand-made)."""
+    from types import SimpleNamespace
+
+    from calibrax.core.parameters import Parameter, ParameterSpace
+    from calibrax.report.data import CampaignData, PointView
+
+    space = ParameterSpace((Parameter("youngs_modulus", 5e9, 5e10, log=True), Parameter("sliding_friction", 0.1, 0.9)))
+    points = [PointView(SimpleNamespace(metric=SimpleNamespace(value=1.0)), []) for _ in range(n_points)]
+    return CampaignData(None, {"cell": {"name": "tiny"}}, space, None, points, {})
+
+
+def test_the_statement_says_when_the_data_do_not_constrain_the_parameters():
+    from calibrax.report.figures import _identifiability
+
+    x = np.array([[u, v] for u in np.linspace(0, 1, 5) for v in np.linspace(0, 1, 5)])
+    everywhere = _identifiability(_data(6), x, np.ones(len(x), bool), np.ones(len(x)), 7.5, 0.95)
+    assert "(100 % of the searched box)" in everywhere and "do not constrain the parameters" in everywhere
+    assert "6 simulations on the 'tiny' cell" in everywhere and "seeds_per_point" in everywhere
+    nowhere = _identifiability(_data(6), x, np.zeros(len(x), bool), np.full(len(x), 9.0), 7.5, 0.95)
+    assert "With 6 finished points the surrogate is rough" in nowhere and "about 20 for 2 parameters" in nowhere
+    assert "cannot reach" in _identifiability(_data(30), x, np.zeros(len(x), bool), np.full(len(x), 9.0), 7.5, 0.95)
