@@ -26,7 +26,7 @@ def _with_unit(name: str, value: float) -> str:
     return f"{name} = {value:.4g}" + ("" if unit == "-" else f" {unit}")
 
 
-def simulation_state(store: CampaignStore, point: PointRecord, index: int, live: bool) -> str:
+def simulation_state(workdir: str | None, point: PointRecord, index: int, live: bool) -> str:
     """"done", "failed", "running", "queued" (a live campaign has not started it yet) or
     "interrupted" (the campaign stopped before it finished; a new run resumes it)."""
     sim = point.sims[index]
@@ -34,7 +34,6 @@ def simulation_state(store: CampaignStore, point: PointRecord, index: int, live:
         return sim.status
     if not live:
         return "interrupted"
-    workdir = store.config().get("workdir")
     if not workdir:  # a crosscheck's or converge's store: its work folders are named otherwise
         return "in flight"
     log = simulation_workdir(Path(workdir), point.id, index) / ATTEMPTS_LOG
@@ -42,14 +41,14 @@ def simulation_state(store: CampaignStore, point: PointRecord, index: int, live:
     return "running" if lines and " started " in f"{lines[-1]} " else "queued"
 
 
-def point_state(store: CampaignStore, point: PointRecord, live: bool) -> str:
+def point_state(workdir: str | None, point: PointRecord, live: bool) -> str:
     """The point's state: done or failed ("no metric": simulated, but no distance, as in a
     crosscheck's store), else the most advanced of its simulations' states."""
     if point.status == "failed" and all(s.status == "done" for s in point.sims):
         return "no metric"
     if point.status != "pending":
         return point.status
-    states = {simulation_state(store, point, s.index, live) for s in point.sims}
+    states = {simulation_state(workdir, point, s.index, live) for s in point.sims}
     return next((s for s in ("running", "in flight", "queued", "interrupted") if s in states), "pending")
 
 
@@ -62,6 +61,7 @@ def status_text(store: CampaignStore) -> str:
     points = store.points()
     summary = Campaign.summary(store)
     live = store.in_use()
+    workdir = store.config().get("workdir") if points else None  # the campaign's work folders (a study's: none)
     names = points[0].names if points else []
     labels = [f"{n} [{UNITS.get(n, '-')}]" for n in names]
     widths = [max(len(label), 10) for label in labels]
@@ -70,7 +70,7 @@ def status_text(store: CampaignStore) -> str:
     lines = [head, "-" * len(head)]
     states = {}
     for p in points:
-        states[p.id] = point_state(store, p, live)
+        states[p.id] = point_state(workdir, p, live)
         f = p.metric.features if p.metric else {}
         dist = f"{p.metric.value:.3g} ± {p.metric.uncertainty:.2g}" if p.metric else ""
         walls = [s.wall_time for s in p.sims if math.isfinite(s.wall_time)]

@@ -40,16 +40,18 @@ def trial_rows(store: CampaignStore | str | Path) -> list[dict[str, Any]]:
     points = store.points()
     best = Campaign.summary(store).best_id
     live = store.in_use()
-    sigmas = sorted({float(s) for p in points for s in (_peaks(store, p) or {})})
+    workdir = store.config().get("workdir") if points else None
+    peaks_of = {p.id: _peaks(store, p) or {} for p in points}  # each point's results read once
+    sigmas = sorted({float(s) for peaks in peaks_of.values() for s in peaks})
     rows = []
     for p in points:
         f = p.metric.features if p.metric is not None else {}
         value = _num(p.metric.value) if p.metric is not None else None
         threshold = _num(f.get("noise_threshold"))
         walls = [s.wall_time for s in p.sims if math.isfinite(s.wall_time)]
-        peaks = _peaks(store, p) or {}
+        peaks = peaks_of[p.id]
         row: dict[str, Any] = {"id": p.id, "batch": p.batch, "source": p.acquisition,
-                               "state": point_state(store, p, live), "best": p.id == best}
+                               "state": point_state(workdir, p, live), "best": p.id == best}
         row.update({_column(n): float(v) for n, v in zip(p.names, p.natural)})
         row.update({
             "distance": value, "distance_sd": _num(p.metric.uncertainty) if p.metric is not None else None,
