@@ -14,7 +14,7 @@ from calibrax.errors import ConfigError, EngineNotFound, SimulationFailed, SpecE
 
 from calibrax_liggghts import LiggghtsSimulator
 from calibrax_liggghts import mesh as meshes
-from calibrax_liggghts.script import num, write_inputs
+from calibrax_liggghts.script import NTYPES, T_PART, T_WALL, num, write_inputs
 from calibrax_liggghts.verification import rolling_resistance, sliding_on_base, two_sphere_collision
 from tests.bank import JOBS, declare_short, declare_tiny
 
@@ -109,8 +109,26 @@ def test_consolidation_turns_for_at_least_one_preshear_rotation(shear_run):
     preshear rotation (and 10 ms), before the first preshear is recorded."""
     spec, result, _ = shear_run
     p = spec.procedure
-    assert result.provenance.extra["consolidation_time"] >= max(0.01, p.preshear_rotation / p.rotation_rate)
+    assert result.provenance.extra["consolidation_time"] >= p.consolidation_min_time
     assert f"variable omega equal {num(p.rotation_rate)}" in _script_between(shear_run, "CALIBRAX placed", "label cons")
+
+
+def _pair_coefficient(script: str, name: str, i: int, j: int) -> float:
+    """Entry (i, j) (atom types, from 1) of a ``peratomtypepair`` property in a LIGGGHTS script."""
+    line = next(ln for ln in script.splitlines() if f"property/global {name} peratomtypepair" in ln)
+    values = [float(v) for v in line.split("peratomtypepair", 1)[1].split()[1:]]
+    assert len(values) == NTYPES * NTYPES, line
+    return values[(i - 1) * NTYPES + (j - 1)]
+
+
+def test_the_consolidation_limit_follows_the_procedure(tmp_path):
+    """At the paper's 0.5 rad/s the consolidation loop may run 3.6 s (six preshear rotations'
+    time), and must run 0.6 s, instead of a fixed 0.3 s (issue 22)."""
+    spec = tiny_spec(procedure={"rotation_rate": 0.5, "preshear_rotation": 0.3})
+    write_inputs(spec.validate(), tmp_path)
+    script = (tmp_path / "in.calibrax").read_text()
+    assert f"variable icons loop {math.ceil(3.6 / 3.0e-3)}" in script
+    assert f"${{icons}} >= {math.ceil(0.6 / 3.0e-3) + 1} " in script
 
 
 def _script_between(shear_run, start: str, end: str) -> str:
@@ -245,12 +263,15 @@ def test_every_capability_writes_a_script_liggghts_accepts(tmp_path):
     from calibrax_liggghts.simulator import run_liggghts
 
     spec = tiny_spec(material={"cohesion_energy_density": 2.0e5},
-                     geometry={"base_ribs": 6, "wall_friction": 0.3},
+                     geometry={"base_ribs": 6, "wall_friction": 0.3, "wall_rolling_friction": 0.07},
                      size_distribution={"kind": "lognormal", "sigma_log": 0.15})
     assert LiggghtsSimulator().capabilities() >= {"cohesion", "base_ribs", "size_distribution", "wall_friction"}
     write_inputs(spec.validate(), tmp_path)
     script = (tmp_path / "in.calibrax").read_text()
     assert "cohesion sjkr" in script and "ribs.stl" in script
+    # the wall's own rolling friction (issue 22) in the particles' row of the rolling matrix
+    assert _pair_coefficient(script, "coefficientRollingFriction", T_PART, T_WALL) == 0.07
+    assert _pair_coefficient(script, "coefficientRollingFriction", T_PART, T_PART) == spec.material.rolling_friction
     with pytest.raises(SimulationFailed) as info:
         run_liggghts(tmp_path, timeout_s=12)
     assert info.value.kind == "timeout", info.value.log_tail

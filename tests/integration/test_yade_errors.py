@@ -46,6 +46,31 @@ def test_unmodelled_effects_are_refused(tmp_path):
     assert not (tmp_path / "c").exists() and not (tmp_path / "r").exists()
 
 
+def test_a_wall_rolling_friction_yade_cannot_give_is_refused(tmp_path):
+    """YADE has one rolling coefficient: the wall gets it or none (issue 22). Any other value is
+    refused, naming the field, before a file is written; 0 and μr reach the script's flag."""
+    from calibrax_yade.simulator import build_params
+
+    with pytest.raises(SpecError) as err:
+        YadeSimulator().simulate(_tiny(geometry={"wall_friction": 0.3, "wall_rolling_friction": 0.2}), tmp_path / "w")
+    assert err.value.key == "geometry.wall_rolling_friction" and not (tmp_path / "w").exists()
+    mu_r = _tiny().material.rolling_friction
+    assert build_params(_tiny(geometry={"wall_friction": 0.3}))["wall_rolling"] == 1.0
+    assert build_params(_tiny(geometry={"wall_friction": 0.3, "wall_rolling_friction": 0.0}))["wall_rolling"] == 0.0
+    assert build_params(_tiny(geometry={"wall_rolling_friction": mu_r}))["wall_rolling"] == 1.0
+    assert build_params(_tiny())["wall_rolling"] == 0.0
+
+
+def test_the_consolidation_limit_reaches_the_script():
+    """The script reads its minimum and limit from the procedure (at the paper's rate: 0.6 s and
+    3.6 s), not a fixed 0.12 s."""
+    from calibrax_yade.simulator import build_params
+
+    params = build_params(_tiny(procedure={"rotation_rate": 0.5, "preshear_rotation": 0.3}))
+    assert params["consolidation_min_time"] == pytest.approx(0.6)
+    assert params["consolidation_time_limit"] == pytest.approx(3.6)
+
+
 def test_missing_binary_raises_engine_not_found(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))
     monkeypatch.delenv("CALIBRAX_YADE", raising=False)

@@ -30,6 +30,30 @@ def test_procedures_paper_and_astm():
     assert ShearCellSpec.preset("quick").procedure.shear_stresses == (9e3, 8e3, 7e3, 6e3)
 
 
+def test_consolidation_limit_follows_the_procedure():
+    """Six preshear rotations' time, not a fixed 0.12 s: the paper's 0.5 rad/s needs 0.6 s for its
+    first rotation alone (issue 22)."""
+    times = {name: (ShearCellSpec.preset(name).procedure.consolidation_min_time,
+                    ShearCellSpec.preset(name).procedure.consolidation_time_limit)
+             for name in ("tiny", "quick", "paper")}
+    assert times["paper"] == pytest.approx((0.6, 3.6))
+    assert times["quick"] == pytest.approx((0.03, 0.18))
+    assert times["tiny"] == pytest.approx((0.02, 0.12))
+    fast = ShearCellSpec.preset("tiny").replace(procedure={"rotation_rate": 100.0}).procedure
+    assert fast.consolidation_min_time == 0.01 and fast.consolidation_time_limit == pytest.approx(0.06)
+
+
+def test_wall_rolling_friction_defaults_to_every_backends_former_rule():
+    """None: the particles' μr against a wall with friction, 0 against a frictionless one; a value
+    set is taken as it is."""
+    tiny = ShearCellSpec.preset("tiny")
+    mu_r = tiny.material.rolling_friction
+    assert tiny.effective_wall_rolling_friction() == 0.0
+    assert tiny.replace(geometry={"wall_friction": 0.3}).effective_wall_rolling_friction() == mu_r
+    assert tiny.replace(geometry={"wall_friction": 0.3, "wall_rolling_friction": 0.0}).effective_wall_rolling_friction() == 0.0
+    assert tiny.replace(geometry={"wall_rolling_friction": 0.2}).effective_wall_rolling_friction() == 0.2
+
+
 def test_spec_roundtrips_through_dict_and_hash_is_stable():
     spec = ShearCellSpec.preset("tiny", material={"sliding_friction": 0.3})
     again = ShearCellSpec.from_dict(spec.to_dict())
@@ -49,6 +73,8 @@ def test_spec_roundtrips_through_dict_and_hash_is_stable():
     ({"material": {"sliding_friction": 0.0}, "geometry": {"base_friction": 0.0, "base_ribs": 0}},
      "geometry.base_friction"),
     ({"material": {"youngs_modulus": float("nan")}}, "material.youngs_modulus"),
+    ({"geometry": {"wall_rolling_friction": -0.1}}, "geometry.wall_rolling_friction"),
+    ({"geometry": {"wall_rolling_friction": "none"}}, "geometry.wall_rolling_friction"),
 ])
 def test_bad_specs_are_refused_with_the_field_named(changes, key):
     with pytest.raises(SpecError) as err:

@@ -113,7 +113,9 @@ class Geometry:
     diameter by default), as ring shear cells hold theirs with cleats: a flat base of the particles'
     own friction can hold at most τ ≈ 0.55 σ, below the powder's strength, so the bed would slide
     on it as a block and τ would measure the base (``base_ribs: 0`` gives that flat base). The base
-    and ribs take the particles' μs and μr (``None``).
+    and ribs take the particles' μs and μr (``None``). The lateral wall's rolling friction
+    ``wall_rolling_friction`` defaults (``None``) to the particles' μr when the wall has sliding
+    friction and to 0 when it has none (:meth:`ShearCellSpec.effective_wall_rolling_friction`).
     """
 
     vessel_diameter: float = 61.2e-3
@@ -123,11 +125,18 @@ class Geometry:
     blade_height: float = 3.6e-3
     hub_radius: float = 3.0e-3
     wall_friction: float = 0.0
+    wall_rolling_friction: float | None = None
     base_friction: float | None = None
     base_rolling_friction: float | None = None
     head_friction: float | None = None
     base_ribs: int = 18
     rib_height: float = 1.8e-3
+
+
+#: consolidation may last this many times its minimum (one preshear rotation) before the backends
+#: give up waiting for the head to settle; consolidations measured at tiny and quick settled within
+#: 1.1–1.8 × the minimum (0.033–0.036 s of 0.02–0.03 s)
+CONSOLIDATION_LIMIT_FACTOR = 6.0
 
 
 @dataclass(frozen=True)
@@ -151,6 +160,20 @@ class Procedure:
     shear_rotation: float = 0.20
     settle_time: float = 0.02
     peak_window: float = 0.01
+
+    @property
+    def consolidation_min_time(self) -> float:
+        """Shortest consolidation, s: one preshear rotation of turning (at least 10 ms), so that the
+        blades work their way in and the bed compacts before the first preshear is recorded."""
+        return max(0.01, self.preshear_rotation / self.rotation_rate)
+
+    @property
+    def consolidation_time_limit(self) -> float:
+        """Longest consolidation, s: :data:`CONSOLIDATION_LIMIT_FACTOR` × the shortest. Past it the
+        backends stop waiting for the head to settle and warn. Derived from the procedure, so that a
+        slow rotation (the paper's 0.5 rad/s: 0.6 s minimum, 3.6 s limit) is not cut off before its
+        first rotation ends; ``tiny`` gets 0.12 s, ``quick`` 0.18 s."""
+        return CONSOLIDATION_LIMIT_FACTOR * self.consolidation_min_time
 
 
 @dataclass(frozen=True)
@@ -218,6 +241,14 @@ class ShearCellSpec:
         g, m = self.geometry, self.material
         return (m.sliding_friction if g.base_friction is None else g.base_friction,
                 m.rolling_friction if g.base_rolling_friction is None else g.base_rolling_friction)
+
+    def effective_wall_rolling_friction(self) -> float:
+        """μr of the lateral wall: ``geometry.wall_rolling_friction`` if set, else the particles' μr
+        when the wall has sliding friction and 0 when it has none (every backend's former rule)."""
+        g = self.geometry
+        if g.wall_rolling_friction is not None:
+            return g.wall_rolling_friction
+        return self.material.rolling_friction if g.wall_friction > 0 else 0.0
 
     def effective_head_friction(self) -> float:
         """μs of the head's blades and face: the material's unless set."""
@@ -334,7 +365,8 @@ class ShearCellSpec:
             raise SpecError("geometry.blade_count", f"must be an integer ≥ 1, got {g.blade_count!r}")
         if not isinstance(g.base_ribs, int) or g.base_ribs < 0:
             raise SpecError("geometry.base_ribs", f"must be an integer ≥ 0, got {g.base_ribs!r}")
-        for key in ("wall_friction", "base_friction", "base_rolling_friction", "head_friction"):
+        for key in ("wall_friction", "wall_rolling_friction", "base_friction", "base_rolling_friction",
+                    "head_friction"):
             value = getattr(g, key)
             if value is not None:
                 finite(f"geometry.{key}", value)

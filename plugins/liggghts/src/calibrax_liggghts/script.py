@@ -157,7 +157,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # ---------------------------------------------------------------- materials
     mu_b, mur_b = spec.effective_base_friction()
     mu_h = spec.effective_head_friction()
-    mur_wall = m.rolling_friction if g.wall_friction > 0 else 0.0
+    mur_wall = spec.effective_wall_rolling_friction()
     friction = _matrix({(T_POUR, T_POUR): POUR_FRICTION, (T_POUR, T_PART): POUR_FRICTION,
                         (T_POUR, T_BASE): POUR_FRICTION, (T_POUR, T_WALL): min(g.wall_friction, POUR_FRICTION),
                         (T_POUR, T_HEAD): POUR_FRICTION,
@@ -331,10 +331,10 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # σ averaged over each 3 ms chunk (numba_dem averages the last 1 ms; this tiny bed's σ is too noisy
     # for that), the head's travel over the chunk
     add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
-    n_cons = int(math.ceil(0.3 / 3.0e-3))
     # numba_dem's rule: at least one preshear rotation of turning (and 10 ms), then until the head
-    # stops sinking with σ on target
-    min_chunks = max(4, int(math.ceil(max(0.01, p.preshear_rotation / p.rotation_rate) / 3.0e-3)) + 1)
+    # stops sinking with σ on target; at most Procedure.consolidation_time_limit
+    n_cons = int(math.ceil(p.consolidation_time_limit / 3.0e-3))
+    min_chunks = max(4, int(math.ceil(p.consolidation_min_time / 3.0e-3)) + 1)
     add("variable zprev equal ${zh}")
     add("variable consok equal 0")
     add(f"variable icons loop {integer(n_cons)}")

@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.sheartest import (Provenance, ShearCellSpec, ShearTestResult, StepRecord,
-                                     shear_stress_from_torque)
+from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, Provenance, ShearCellSpec, ShearTestResult,
+                                     StepRecord, shear_stress_from_torque)
 from calibrax.core.simulator import check_capabilities
 from calibrax.errors import EngineNotFound, SimulationFailed
 
@@ -248,7 +248,9 @@ class LiggghtsSimulator:
             warnings.append(f"the servo held σ within 5 % of its target in only {len(errors) - len(bad)} of "
                             f"{len(errors)} steps (worst {100 * max(bad, key=abs):+.1f} %)")
         if info.get("consolidation_settled", 1.0) < 0.5:
-            warnings.append("consolidation did not settle within 0.3 s")
+            warnings.append(f"consolidation: the head was still moving after "
+                            f"{spec.procedure.consolidation_time_limit:.3g} s "
+                            f"({CONSOLIDATION_LIMIT_FACTOR:g} × one preshear rotation)")
         prov = Provenance(backend=self.name, engine_version=self.version(), spec_hash=spec.spec_hash(),
                           seed=spec.numerics.seed, wall_time=wall, particle_count=plan.n_particles,
                           threads=spec.numerics.threads,

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import (GRAVITY, ShearCellSpec, StepRecord, base_layer_bounds, layer_spin,
-                                     shear_stress_from_torque)
+from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, GRAVITY, ShearCellSpec, StepRecord,
+                                     base_layer_bounds, layer_spin, shear_stress_from_torque)
 from calibrax.errors import SimulationFailed
 
 from .contact import beta_from_restitution, effective_moduli
@@ -78,7 +78,7 @@ class ShearTestDriver:
         self.e_star = e_star
         mu_b, mur_b = spec.effective_base_friction()
         self.mu_base, self.mur_base = mu_b, mur_b
-        wall_mur = m.rolling_friction if g.wall_friction > 0 else 0.0
+        wall_mur = spec.effective_wall_rolling_friction()
         params = make_params(
             dt=self.dt, gz=-GRAVITY * POUR_GRAVITY, estar=e_star, gstar=g_star,
             beta=beta_from_restitution(m.restitution), mu=POUR_FRICTION, mur=0.0,
@@ -91,6 +91,8 @@ class ShearTestDriver:
         self.z_ceiling = float(x[:, 2].max()) + 10.0 * spec.radius
         self.steps: list[StepRecord] = []
         self.bulk_density: list[float] = []
+        self.consolidation_time = math.nan  # s, set by consolidate()
+        self.consolidation_rotation = math.nan  # rad the head turned while consolidating
         self.sigma_errors: list[float] = []
         self.warnings: list[str] = []
 
@@ -190,7 +192,14 @@ class ShearTestDriver:
         h[H_OMEGA] = spec.procedure.rotation_rate
         z_prev = h[H_Z]
         t0 = self.time
+        phi0 = h[H_PHI]
         target = spec.procedure.preshear_stress
+        # at least one preshear rotation of turning (the blades must work their way in and the bed
+        # must compact before the first preshear is recorded), then until the head stops sinking
+        # (< 1/200 diameter in 3 ms) with σ (last 1 ms) within 5 % of its target; at most a multiple
+        # of that minimum (Procedure.consolidation_time_limit)
+        t_min = spec.procedure.consolidation_min_time
+        t_max = spec.procedure.consolidation_time_limit
         while True:
             self._run(2.0e-3, "consolidation")
             s.take_accumulators()
@@ -199,16 +208,17 @@ class ShearTestDriver:
             sigma = f / self.area
             moved = abs(h[H_Z] - z_prev)
             z_prev = h[H_Z]
-            # at least one preshear rotation of turning (the blades must work their way in and the
-            # bed must compact before the first preshear is recorded), then until the head stops
-            t_min = max(0.01, spec.procedure.preshear_rotation / spec.procedure.rotation_rate)
             if self.time - t0 > t_min and moved < 0.005 * 2 * spec.radius and abs(sigma / target - 1) < 0.05:
                 break
-            if self.time - t0 > 0.12:
-                self.warnings.append("consolidation: the head was still moving after 0.12 s")
+            if self.time - t0 > t_max:
+                self.warnings.append(f"consolidation: the head was still moving after {t_max:.3g} s "
+                                     f"({CONSOLIDATION_LIMIT_FACTOR:g} × one preshear rotation)")
                 break
         h[H_OMEGA] = 0.0
-        self.log(f"t={self.time:.5f} s consolidated: head at {h[H_Z] * 1e3:.2f} mm, σ = {sigma:.0f} Pa "
+        self.consolidation_time = self.time - t0
+        self.consolidation_rotation = float(h[H_PHI] - phi0)
+        self.log(f"t={self.time:.5f} s consolidated in {self.consolidation_time:.4f} s (head turned "
+                 f"{self.consolidation_rotation:.3f} rad): head at {h[H_Z] * 1e3:.2f} mm, σ = {sigma:.0f} Pa "
                  f"(target {target:.0f}), bulk density {self.bulk():.0f} kg/m³")
 
     def bulk(self) -> float:

@@ -70,5 +70,7 @@ class NumbaDEMSimulator:
                           seed=spec.numerics.seed, wall_time=wall, particle_count=driver.sys.n, threads=threads,
                           extra={"time_step": spec.time_step, "simulated_time": driver.time,
                                  "servo_sigma_errors": driver.sigma_errors,
+                                 "consolidation_time": driver.consolidation_time,
+                                 "consolidation_rotation": driver.consolidation_rotation,
                                  "stress_area": "pi*head_radius**2"})
         return ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density, prov, driver.warnings)

@@ -103,12 +103,15 @@ def build_params(spec: ShearCellSpec) -> dict:
         "preshear_stress": p.preshear_stress, "shear_stresses": [float(s) for s in p.shear_stresses],
         "rotation_rate": p.rotation_rate, "preshear_rotation": p.preshear_rotation,
         "shear_rotation": p.shear_rotation, "settle_time": p.settle_time,
+        "consolidation_min_time": p.consolidation_min_time, "consolidation_time_limit": p.consolidation_time_limit,
         "sample_interval": spec.numerics.sample_interval, "servo_substeps": SERVO_SUBSTEPS,
         "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
         "approach_speed": APPROACH_SPEED, "shear_speed_limit": SHEAR_SPEED_LIMIT,
         "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED,
-        # numba_dem's and LIGGGHTS' rule: a lateral wall without friction has no rolling resistance
-        "wall_rolling": 1.0 if g.wall_friction > 0 else 0.0, "wall_rolling_period": float(WALL_ROLLING_PERIOD),
+        # the wall's rolling friction is either every contact's (YADE's one eta) or none (cleared on
+        # the wall's contacts); _refuse has turned away any other value
+        "wall_rolling": 1.0 if spec.effective_wall_rolling_friction() > 0 else 0.0,
+        "wall_rolling_period": float(WALL_ROLLING_PERIOD),
     }
 
 
@@ -155,6 +158,12 @@ class YadeSimulator:
             raise SpecError("geometry.base_rolling_friction",
                             "the yade backend uses one rolling-friction coefficient for every contact; "
                             f"leave it unset or equal to material.rolling_friction ({m.rolling_friction})")
+        wall_mur = spec.effective_wall_rolling_friction()
+        if wall_mur not in (0.0, m.rolling_friction):
+            raise SpecError("geometry.wall_rolling_friction",
+                            "the yade backend gives the lateral wall either every contact's rolling friction "
+                            f"or none; set it to 0 or to material.rolling_friction ({m.rolling_friction}), "
+                            f"or leave it unset, got {wall_mur}")
 
     def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
         """Run the whole test and return its result.

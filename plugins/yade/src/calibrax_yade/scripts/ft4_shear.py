@@ -357,8 +357,10 @@ def consolidate():
     sigma = float("nan")
     # numba_dem's rule: at least one preshear rotation of turning (the blades must work their way
     # in and the bed compact before the first preshear is recorded), then until the head has
-    # stopped sinking (< 1/200 diameter in 3 ms) with sigma (last 1 ms) within 5 % of its target
-    t_min = max(0.01, P["preshear_rotation"] / RATE)
+    # stopped sinking (< 1/200 diameter in 3 ms) with sigma (last 1 ms) within 5 % of its target;
+    # at most a multiple of that minimum (calibrax's Procedure.consolidation_time_limit)
+    t_min = P["consolidation_min_time"]
+    t_max = P["consolidation_time_limit"]
     while True:
         run_time(2.0e-3, "consolidation")
         take_accumulators()
@@ -370,8 +372,9 @@ def consolidate():
         z_prev = z
         if O.time - t0 > t_min and moved < 0.005 * 2 * R0 and abs(sigma / target - 1) < 0.05:
             break
-        if O.time - t0 > 0.12:
-            WARN.append("consolidation: the head was still moving after 0.12 s")
+        if O.time - t0 > t_max:
+            WARN.append("consolidation: the head was still moving after %.3g s (%.3g x one preshear rotation)"
+                        % (t_max, t_max / t_min))
             break
     S["omega"] = 0.0
     log("t=%.5f s consolidated in %.4f s (head turned %.3f rad): head at %.2f mm, sigma = %.0f Pa (target %.0f), "
