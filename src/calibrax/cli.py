@@ -134,10 +134,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     summary = run_campaign(config)
     print(f"campaign {config.name}: {summary.points} points, {summary.done} done, {summary.failed} failed; "
           f"store {summary.store}")
+    if summary.answer is not None:
+        from calibrax.core.answer import Answer
+
+        print(f"answer: {Answer.from_dict(summary.answer).summary()}")
     if summary.best_id is not None:
         params = ", ".join(f"{k} = {v:.4g}" for k, v in summary.best_params.items())
-        print(f"best: point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
-              f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
+        print(f"best observed (one draw of the noise, not the answer): point {summary.best_id}: {params}; "
+              f"distance {summary.best_value:.3g} ± {summary.best_uncertainty:.2g}, {summary.noise_text()}")
     return 0
 
 
@@ -183,7 +187,8 @@ def _cmd_status(args: argparse.Namespace) -> int:
                  "uncertainty": None if p.metric is None else p.metric.uncertainty,
                  "features": {} if p.metric is None else p.metric.features,
                  "failures": [s.reason for s in p.sims if s.status == "failed"]} for p in points]
-        print(json.dumps({"points": rows, "best_id": summary.best_id}, default=float, indent=1))
+        print(json.dumps({"points": rows, "best_id": summary.best_id, "answer": summary.answer}, default=float,
+                         indent=1))
         return 0
     from calibrax.report.status import status_text
 

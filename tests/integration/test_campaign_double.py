@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from calibrax import CampaignStore, load_config, run_campaign
 from tests.conftest import TRUE_E, TRUE_MU, calibrax_cli, write_double_campaign
@@ -31,6 +32,14 @@ def test_qei_campaign_recovers_known_parameters(tmp_path):
     # The search improves on the initial space-filling design.
     initial_best = min(p.metric.value for p in points if p.batch == 0)
     assert summary.best_value < initial_best
+    # The answer (issue 18): the model's recommendation is near the truth and inside its own
+    # plausible region, which holds the truth
+    answer = summary.answer
+    rec = answer["params"]
+    assert abs(math.log10(rec["youngs_modulus"]) - math.log10(TRUE_E)) < 0.15, rec
+    assert abs(rec["sliding_friction"] - TRUE_MU) < 0.06, rec
+    lo, hi = answer["ranges"]["sliding_friction"]
+    assert lo <= TRUE_MU <= hi and lo <= rec["sliding_friction"] <= hi, answer["ranges"]
 
 
 def test_run_twice_resumes_without_repeating(tmp_path):
@@ -46,7 +55,9 @@ def test_run_twice_resumes_without_repeating(tmp_path):
     assert {p.id: [s.seed for s in p.sims] for p in store.points()} == finished
     assert {p.id: store.result(p.id).provenance.wall_time for p in store.points()} == stamps
     status = calibrax_cli("status", str(tmp_path / "runs/double.h5"))
-    assert status.returncode == 0 and "best (*)" in status.stdout
+    assert status.returncode == 0 and "best observed (*" in status.stdout
+    # the answer (issue 18): the model's recommendation and plausible region, stored and shown
+    assert "answer: " in status.stdout and "Recommended: " in status.stdout and store.answer() is not None
 
 
 def test_sobol_and_qlogei_and_qnei_run(tmp_path):
@@ -59,3 +70,21 @@ def test_sobol_and_qlogei_and_qnei_run(tmp_path):
         assert summary.points == 5 and summary.done == 5
         pts = CampaignStore(config.store).points()
         assert np.all((np.stack([p.unit for p in pts]) >= 0) & (np.stack([p.unit for p in pts]) <= 1))
+
+
+def test_enqueued_points_run_first_and_a_resume_runs_new_ones(tmp_path):
+    """Hand-chosen points (Ax's and Optuna's enqueue) are simulated first, in batch 0 before the Sobol
+    design; points added to ``enqueue`` later run as the next batch when the campaign resumes."""
+    first = {"youngs_modulus": 2.0e10, "sliding_friction": 0.35}
+    path = write_double_campaign(tmp_path, enqueue=[first], budget={"initial": 3, "iterations": 0})
+    run_campaign(load_config(path))
+    store = CampaignStore(tmp_path / "runs/double.h5")
+    points = store.points()
+    assert len(points) == 4 and points[0].batch == 0 and points[0].acquisition == "enqueued+sobol(initial)"
+    assert points[0].params() == pytest.approx({k: float(v) for k, v in first.items()}, rel=1e-12)
+    later = {"youngs_modulus": 8.0e9, "sliding_friction": 0.6}
+    write_double_campaign(tmp_path, enqueue=[first, later], budget={"initial": 3, "iterations": 0})
+    summary = run_campaign(load_config(path))
+    points = store.points()
+    assert summary.points == 5 and points[-1].acquisition == "enqueued" and points[-1].batch == 1
+    assert points[-1].params() == pytest.approx({k: float(v) for k, v in later.items()})

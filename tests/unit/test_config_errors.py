@@ -108,3 +108,32 @@ def test_procedure_mapping_overrides_fields_of_its_preset(tmp_path):
     bad = write_double_campaign(tmp_path, cell={"procedure": {"preset": "paper", "shear_rotation": -1}})
     proc = calibrax_cli("run", str(bad), "--check")
     assert proc.returncode == 2 and "cell.procedure.shear_rotation" in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("enqueue, key", [
+    ([{"youngs_modulus": 2e10}], "enqueue[0].sliding_friction"),
+    ([{"youngs_modulus": 2e10, "sliding_friction": 1.5}], "enqueue[0].sliding_friction"),
+    ([{"youngs_modulus": 2e10, "sliding_friction": 0.3, "density": 1.0}], "enqueue[0].density"),
+    ({"youngs_modulus": 2e10}, "enqueue"),
+])
+def test_bad_enqueued_points_name_the_key(tmp_path, enqueue, key):
+    from calibrax import load_config
+    from calibrax.errors import ConfigError
+    from tests.conftest import write_double_campaign
+
+    with pytest.raises(ConfigError) as err:
+        load_config(write_double_campaign(tmp_path, enqueue=enqueue))
+    assert err.value.key == key
+
+
+@pytest.mark.parametrize("surrogate, key", [({"transform": "log"}, "surrogate.transform"),
+                                            ({"noise": "none"}, "surrogate.noise"),
+                                            ({"kernel": "rbf"}, "surrogate.kernel")])
+def test_bad_surrogate_options_name_the_key(tmp_path, surrogate, key):
+    from calibrax import load_config
+    from calibrax.errors import ConfigError
+    from tests.conftest import write_double_campaign
+
+    with pytest.raises(ConfigError) as err:
+        load_config(write_double_campaign(tmp_path, surrogate=surrogate))
+    assert err.value.key == key

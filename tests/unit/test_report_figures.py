@@ -53,13 +53,25 @@ def _data(n_points: int):
     return CampaignData(None, {"cell": {"name": "tiny"}}, space, None, points, {})
 
 
+def _answer(ranges: dict, share: float):
+    from calibrax.core.answer import Answer
+
+    names = ("youngs_modulus", "sliding_friction")
+    return Answer(params={"youngs_modulus": 2e10, "sliding_friction": 0.35}, predicted=1.2, predicted_sd=0.4,
+                  threshold=7.5, rate=0.95, ranges=ranges,
+                  constrained={n: bool(ranges) and n == "sliding_friction" for n in names}, region_share=share,
+                  n_points=6, bounds={"youngs_modulus": (5e9, 5e10), "sliding_friction": (0.1, 0.9)})
+
+
 def test_the_statement_says_when_the_data_do_not_constrain_the_parameters():
     from calibrax.report.figures import _identifiability
 
-    x = np.array([[u, v] for u in np.linspace(0, 1, 5) for v in np.linspace(0, 1, 5)])
-    everywhere = _identifiability(_data(6), x, np.ones(len(x), bool), np.ones(len(x)), 7.5, 0.95)
-    assert "(100 % of the searched box)" in everywhere and "do not constrain the parameters" in everywhere
+    wide = {"youngs_modulus": (5e9, 5e10), "sliding_friction": (0.3, 0.4)}
+    everywhere = _identifiability(_data(6), _answer(wide, 1.0))
+    assert "100 % of the box" in everywhere and "do not constrain the parameters" in everywhere
+    assert "E anywhere in 5 GPa to 50 GPa: the test does not constrain it" in everywhere
+    assert "μs = 0.35 (plausible 0.3 to 0.4)" in everywhere
     assert "6 simulations on the 'tiny' cell" in everywhere and "seeds_per_point" in everywhere
-    nowhere = _identifiability(_data(6), x, np.zeros(len(x), bool), np.full(len(x), 9.0), 7.5, 0.95)
+    nowhere = _identifiability(_data(6), _answer({}, 0.0))
     assert "With 6 finished points the surrogate is rough" in nowhere and "about 20 for 2 parameters" in nowhere
-    assert "cannot reach" in _identifiability(_data(30), x, np.zeros(len(x), bool), np.full(len(x), 9.0), 7.5, 0.95)
+    assert "cannot reach" in _identifiability(_data(30), _answer({}, 0.0))

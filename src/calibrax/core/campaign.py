@@ -1,7 +1,8 @@
 """The calibration loop: propose → simulate in parallel → measure → record → refit.
 
-Batch 0 is a scrambled Sobol design of ``budget.initial`` points. Then, until
-``initial + iterations × q`` points have been proposed:
+Batch 0 is the hand-chosen ``enqueue`` points followed by a scrambled Sobol design of
+``budget.initial`` points. Then, until ``enqueued + initial + iterations × q`` points have been
+proposed (points enqueued on a later resume run first, as the next batch):
 
 * ``batching: sync`` (the paper's way): when every simulation of a batch has finished, fit the
   Kriging model on every finished point and ask the acquisition for ``q`` points at once;
@@ -18,6 +19,10 @@ Kriging model with a *penalty* distance (the worst finished distance plus 10 % o
 range), which steers the acquisition away from its neighbourhood, and no point is ever proposed
 again within 1e-3 (unit-cube units) of an existing one: such a proposal is replaced by a
 space-filling point.
+
+The campaign's result is its :class:`~calibrax.core.answer.Answer`, not the best observation (a lucky
+seed on noisy DEM): the minimiser of the Kriging model's posterior mean with the region of plausible
+parameters, refitted after every batch and stored, and printed at the end.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ from typing import Any, Callable
 import numpy as np
 
 from calibrax.core.acquisition import Observations
+from calibrax.core.answer import Answer, answer_from_model
 from calibrax.core.config import CampaignConfig
 from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
@@ -61,6 +67,8 @@ class CampaignSummary:
     #: the metric's noise threshold at the best point and the rate it holds at (NaN: none stated)
     noise_threshold: float = float("nan")
     noise_threshold_rate: float = float("nan")
+    #: the model's answer (recommendation and plausible region), None before a model could be fitted
+    answer: dict[str, Any] | None = None
 
     def noise_text(self) -> str:
         """How the best distance compares with the metric's noise threshold, in words."""
@@ -169,6 +177,7 @@ class Campaign:
         self._engine_walls: list[float] = []
         self._capacity = 1
         self._starts = StartTracker(self._on_start)
+        self._model = None  # the last Kriging model fitted for a proposal
 
     # ------------------------------------------------------------------------------------------
     def run(self) -> CampaignSummary:
@@ -178,7 +187,7 @@ class Campaign:
         with CampaignStore(cfg.store).acquire(cfg.search_hash()) as store:
             created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
             points = store.points()
-            target = cfg.initial + cfg.iterations * cfg.q
+            target = cfg.target_points
             self._sims_total = max(target, len(points)) * cfg.seeds_per_point
             stored = sum(1 for p in points for s in p.sims if s.status != "pending")
             self._sims_started = self._sims_finished = stored
@@ -201,8 +210,10 @@ class Campaign:
             self._capacity = max(1, executor.capacity)
             try:
                 if not store.points():
-                    self._add_batch(store, executor, 0, sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed),
-                                    "sobol(initial)", None)
+                    design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
+                    enq = self._unqueued(store.points())
+                    source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
+                    self._add_batch(store, executor, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
                 else:
                     for p in store.points():
                         self._submit(executor, p)
@@ -211,17 +222,22 @@ class Campaign:
                 executor.shutdown(cancel=True)
                 raise
             executor.shutdown()
+            self._answer(store)
             return self.summary(store)
 
     def _loop(self, store: CampaignStore, executor) -> None:
         cfg = self.config
-        target = cfg.initial + cfg.iterations * cfg.q
+        target = cfg.target_points
         last_beat = time.monotonic()
         while True:
             points = store.points()
             running = {job.point.id for job in self._inflight.values()}
             if len(points) < target:
                 batch = max(p.batch for p in points) + 1
+                enq = self._unqueued(points)
+                if len(enq) and (cfg.batching == "async" or not running):
+                    self._add_batch(store, executor, batch, enq, "enqueued", None)
+                    continue
                 if cfg.batching == "sync" and not running:
                     self._propose_and_submit(store, executor, points, batch, min(cfg.q, target - len(points)))
                     continue
@@ -238,6 +254,34 @@ class Campaign:
             if time.monotonic() - last_beat >= HEARTBEAT_S and self._inflight:
                 last_beat = time.monotonic()
                 self._heartbeat()
+
+    def _unqueued(self, points: list[PointRecord]) -> np.ndarray:
+        """The enqueued points (unit cube, shape (k, dim)) not yet in the store."""
+        cfg = self.config
+        if not cfg.enqueue:
+            return np.zeros((0, cfg.space.dim))
+        rows = cfg.space.to_unit(np.asarray(cfg.enqueue, dtype=float))
+        taken = np.stack([p.unit for p in points]) if points else np.zeros((0, cfg.space.dim))
+        new = [r for r in rows if not len(taken) or np.min(np.max(np.abs(taken - r), axis=1)) >= DUPLICATE_TOL]
+        return np.stack(new) if new else np.zeros((0, cfg.space.dim))
+
+    def fit_model(self, points: list[PointRecord], seed: int):
+        """The Kriging model of the distance over the finished (and penalised failed) points, with
+        the campaign's surrogate options; None with fewer than 2 points."""
+        return fit_distance_model(points, self.config.surrogate, seed)
+
+    def _answer(self, store: CampaignStore, points: list[PointRecord] | None = None, model=None) -> None:
+        """Store (and log) the campaign's answer from ``model`` fitted on ``points`` (default: refit
+        on every point in the store); nothing with fewer than 3 finished points."""
+        points = store.points() if points is None else points
+        finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+        if len(finished) < 3:
+            return
+        model = model if model is not None else self.fit_model(points, seed=self.config.seed)
+        threshold, rate = _noise_threshold(finished)
+        answer = answer_from_model(model, self.config.space, threshold, rate, len(finished))
+        store.write_answer(answer.to_dict())
+        self._emit("answer", f"answer from {len(finished)} points: {answer.summary()}", answer=answer.to_dict())
 
     def _on_start(self, fut: cf.Future) -> None:
         """A worker took this simulation: log its start ("simulation k of N …")."""
@@ -274,7 +318,7 @@ class Campaign:
 
     @staticmethod
     def summary(store: CampaignStore) -> CampaignSummary:
-        """The campaign's state as stored: counts and the best point so far."""
+        """The campaign's state as stored: counts, the best observed point so far and the answer."""
         points = store.points()
         done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
         failed = sum(1 for p in points if p.status == "failed")
@@ -283,7 +327,7 @@ class Campaign:
             return CampaignSummary(store.path, len(points), len(done), failed, None, {}, float("nan"), float("nan"))
         return CampaignSummary(store.path, len(points), len(done), failed, best.id, best.params(),
                                best.metric.value, best.metric.uncertainty, best.metric.threshold,
-                               best.metric.threshold_rate)
+                               best.metric.threshold_rate, store.answer())
 
     # ------------------------------------------------------------------------------------------
     def _propose_and_submit(self, store: CampaignStore, executor, points: list[PointRecord], batch: int, q: int,
@@ -291,6 +335,8 @@ class Campaign:
         unit, source, model = self._propose(points, batch, q, pending or [])
         unit = self._without_repeats(unit, points, batch)
         self._add_batch(store, executor, batch, unit, source, model)
+        if self._model is not None:
+            self._answer(store, points, self._model)
 
     def _propose(self, points: list[PointRecord], batch: int, q: int,
                  pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None]:
@@ -298,6 +344,7 @@ class Campaign:
         obs = observations(points)
         seed = cfg.seed * 7919 + batch
         x_pending = np.stack([p.unit for p in pending]) if pending else None
+        self._model = None
         if not self.acquisition.needs_model:
             unit = self.acquisition.propose(None, cfg.space, obs, q, pending=x_pending, seed=seed)
             return unit, cfg.acquisition, None
@@ -306,10 +353,8 @@ class Campaign:
             self._emit("fallback", f"batch {batch}: only {finished} finished point(s), too few for a model; "
                        "proposing space-filling points", level=logging.WARNING, batch=batch)
             return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
-        from calibrax.core.surrogate import Kriging
-
         t0 = time.monotonic()
-        model = Kriging.fit(obs.x, obs.y, seed=seed)
+        model = self._model = self.fit_model(points, seed=seed)
         unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
         hyper = model.hyperparameters()
         n_pen = len(obs.y) - finished
@@ -433,6 +478,36 @@ class Campaign:
             return "no best point yet"
         v, pid, params = self._best
         return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)}), {noise_text(v, *self._best_noise)}"
+
+
+def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
+    """The metric's noise threshold and rate over the finished points (their median: the threshold
+    depends only on the experiment and the seeds per point, so they agree)."""
+    values = [p.metric.threshold for p in finished if math.isfinite(p.metric.threshold)]
+    rates = [p.metric.threshold_rate for p in finished if math.isfinite(p.metric.threshold_rate)]
+    return (float(np.median(values)) if values else math.nan, float(np.median(rates)) if rates else math.nan)
+
+
+def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int):
+    """A :class:`~calibrax.core.surrogate.Kriging` model of the points' distances (penalised
+    failures included) with the options ``surrogate`` ({transform, noise}); None with < 2 points.
+    ``noise: metric`` takes the noise prior from the metric's threshold
+    (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free."""
+    from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
+
+    obs = observations(points)
+    if len(obs.y) < 2:
+        return None
+    finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+    threshold, _ = _noise_threshold(finished)
+    noise_sd = noise_sd_from_threshold(threshold) if surrogate.get("noise", "metric") == "metric" else None
+    return Kriging.fit(obs.x, obs.y, seed=seed, transform=surrogate.get("transform", "log1p"), noise_sd=noise_sd)
+
+
+def load_answer(store: CampaignStore) -> Answer | None:
+    """The store's last answer, or None."""
+    stored = store.answer()
+    return Answer.from_dict(stored) if stored else None
 
 
 def run_campaign(config: CampaignConfig, listener: Callable[[dict[str, Any]], None] | None = None) -> CampaignSummary:

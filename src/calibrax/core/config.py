@@ -40,7 +40,12 @@ ROOT_KEYS = {
     "workdir": "folder for the simulations' work folders (default: next to the store)",
     "seed": "integer seed of the search and of the simulations",
     "seeds_per_point": "simulations (different seeds) per parameter point",
+    "surrogate": "{transform: log1p or identity, noise: metric or fitted} of the Kriging model",
+    "enqueue": "a list of {parameter: value} points to simulate first, before the Sobol design",
 }
+#: the Kriging model's options and their defaults (calibrax.core.surrogate)
+SURROGATE_DEFAULTS = {"transform": "log1p", "noise": "metric"}
+SURROGATE_CHOICES = {"transform": ("log1p", "identity"), "noise": ("metric", "fitted")}
 REQUIRED = ("name", "simulator", "experiment", "parameters", "store")
 CELL_KEYS = {"preset", "procedure", "geometry", "numerics", "size_distribution", "fill_solid_fraction"}
 
@@ -71,12 +76,22 @@ class CampaignConfig:
     seed: int
     seeds_per_point: int
     resolved: dict[str, Any] = field(default_factory=dict)
+    surrogate: dict[str, str] = field(default_factory=lambda: dict(SURROGATE_DEFAULTS))
+    #: hand-chosen points (natural units), shape (k, dim), simulated first
+    enqueue: tuple[tuple[float, ...], ...] = ()
+
+    @property
+    def target_points(self) -> int:
+        """Points the whole campaign simulates: the enqueued ones, the initial design, the iterations."""
+        return len(self.enqueue) + self.initial + self.iterations * self.q
 
     def search_hash(self) -> str:
         """Hash of what defines the search (not budget, executor or paths): a store made with a
         different one cannot be resumed with this config."""
+        # the surrogate's options and the enqueued points may change on resume: stored points are
+        # data whatever proposed them
         keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
-                                                                      "description", "name")}
+                                                                      "description", "name", "surrogate", "enqueue")}
         return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -183,6 +198,27 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
                 raise ConfigError(f"{key}.{opt}", f"must be a mapping of names to numbers, got {value!r}")
             options[opt] = {str(k): _number(f"{key}.{opt}.{k}", v) for k, v in value.items()}
     return name, options
+
+
+def _enqueued(raw: Any, space: ParameterSpace) -> tuple[tuple[float, ...], ...]:
+    """``enqueue``: a list of {name: value} points inside the box, every parameter given."""
+    if not isinstance(raw, list):
+        raise ConfigError("enqueue", f"must be a list of {{parameter: value}} points, got {type(raw).__name__}")
+    rows = []
+    for i, point in enumerate(raw):
+        point = _mapping(f"enqueue[{i}]", point, set(space.names))
+        row = []
+        for p in space.parameters:
+            if p.name not in point:
+                raise ConfigError(f"enqueue[{i}].{p.name}", f"is required: every calibrated parameter "
+                                  f"({', '.join(space.names)}) needs a value")
+            v = _number(f"enqueue[{i}].{p.name}", point[p.name])
+            if not p.low <= v <= p.high:
+                raise ConfigError(f"enqueue[{i}].{p.name}", f"must lie in the searched range [{p.low:g}, {p.high:g}], "
+                                  f"got {v:g}")
+            row.append(float(v))
+        rows.append(tuple(row))
+    return tuple(rows)
 
 
 # ----------------------------------------------------------------------------- the spec
@@ -294,6 +330,12 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     workdir = base / _text("workdir", raw["workdir"]) if "workdir" in raw else store.with_suffix(".runs")
     seed = _integer("seed", raw.get("seed", 0), 0)
     seeds_per_point = _integer("seeds_per_point", raw.get("seeds_per_point", 1), 1)
+    surrogate = dict(SURROGATE_DEFAULTS)
+    for key, value in _mapping("surrogate", raw.get("surrogate", {}), set(SURROGATE_DEFAULTS)).items():
+        if value not in SURROGATE_CHOICES[key]:
+            raise ConfigError(f"surrogate.{key}", f"must be one of {list(SURROGATE_CHOICES[key])}, got {value!r}")
+        surrogate[key] = value
+    enqueue = _enqueued(raw.get("enqueue", []), space)
     # Build the plugins once so their own option checks run now, not mid-campaign.
     from calibrax.core.simulator import check_capabilities
     from calibrax.plugins.manager import get_manager
@@ -318,8 +360,9 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         "acquisition": {"name": acquisition, "q": q, "batching": batching, **acq_options},
         "budget": {"initial": initial, "iterations": iterations},
         "executor": {"name": executor, **exec_options}, "store": str(store), "workdir": str(workdir),
-        "seed": seed, "seeds_per_point": seeds_per_point,
+        "seed": seed, "seeds_per_point": seeds_per_point, "surrogate": surrogate,
+        **({"enqueue": [list(row) for row in enqueue]} if enqueue else {}),
     }
     return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
                           acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
-                          workdir, seed, seeds_per_point, resolved)
+                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue)

@@ -353,6 +353,18 @@ class CampaignStore:
         with self._read() as f:
             return _read_experiment(f["experiment"]) if "experiment" in f else None
 
+    def write_answer(self, answer: dict[str, Any]) -> None:
+        """Store the campaign's current answer (:meth:`calibrax.core.answer.Answer.to_dict`)."""
+        def put(f: h5py.File) -> None:
+            f.attrs["answer"] = json.dumps(answer)
+
+        self._mutate(put)
+
+    def answer(self) -> dict[str, Any] | None:
+        """The last stored answer, or None (a campaign that has not fitted a model yet)."""
+        with self._read() as f:
+            return json.loads(f.attrs["answer"]) if "answer" in f.attrs else None
+
     def models(self) -> dict[int, dict[str, Any]]:
         """{batch: hyperparameters} of every fitted model."""
         with self._read() as f:

@@ -17,6 +17,7 @@ the same inputs always give the same threshold, to about 0.5 % (200 000 draws).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -67,9 +68,19 @@ def noise_threshold(dof: "list[float] | np.ndarray", correlation: np.ndarray | N
         The threshold on d (not d²).
     """
     nu = np.asarray(dof, dtype=float)
-    k = nu.size
-    if k == 0:
+    if nu.size == 0:
         return math.nan
+    corr = None if correlation is None else tuple(map(tuple, np.asarray(correlation, dtype=float).tolist()))
+    return _threshold(tuple(nu.tolist()), corr, float(factor), float(rate), int(seed))
+
+
+@functools.lru_cache(maxsize=256)
+def _threshold(dof: tuple[float, ...], correlation: tuple[tuple[float, ...], ...] | None, factor: float,
+               rate: float, seed: int) -> float:
+    """:func:`noise_threshold` on hashable inputs, cached: a campaign scores every point with the
+    same degrees of freedom, and one Monte Carlo takes tens of milliseconds."""
+    nu = np.asarray(dof, dtype=float)
+    k = nu.size
     if correlation is None and np.all(np.isinf(nu)):
         from scipy import stats  # here, not at import: simulation processes import the metrics too
 

@@ -15,12 +15,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from calibrax.core.answer import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
 from calibrax.core.surrogate import Kriging  # noqa: E402
 from calibrax.report.data import CampaignData  # noqa: E402
-
-UNITS = {"youngs_modulus": ("E", 1e-9, "GPa"), "sliding_friction": ("μs", 1.0, ""),
-         "rolling_friction": ("μr", 1.0, ""), "restitution": ("e", 1.0, ""), "poisson_ratio": ("ν", 1.0, ""),
-         "density": ("ρ", 1.0, "kg/m³"), "cohesion_energy_density": ("k_coh", 1e-3, "kJ/m³")}
 
 
 def label(name: str) -> str:
@@ -199,15 +196,24 @@ def shear_curves(data: CampaignData, folder: Path) -> list[str]:
 
 def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[list[str], str]:
     """Predicted distance and its standard deviation over the first two parameters (the others at
-    the best point), with every evaluated point and the last batch's proposals; returns the file
-    names and an identifiability statement (the region predicted within the noise: below the
-    metric's stated noise threshold, which the true parameters stay below 95 % of the time)."""
+    the recommendation), with every evaluated point, the last batch's proposals, the answer's
+    recommendation and the edge of its plausible region; returns the file names and the answer's
+    statement (:mod:`calibrax.core.answer`) with what would narrow it."""
+    from calibrax.core.answer import REGION_SIGMAS, answer_from_model
+    from calibrax.core.campaign import fit_distance_model
+    from calibrax.core.config import SURROGATE_DEFAULTS
+
     done = data.done
     if len(done) < 3 or data.space.dim < 1:
         return [], "too few finished points to fit a surrogate"
-    model = Kriging.fit(np.stack([p.record.unit for p in done]), np.array([p.distance for p in done]))
+    options = {**SURROGATE_DEFAULTS, **(data.config.get("surrogate") or {})}
+    seed = int(data.config.get("seed", 0))
+    model = fit_distance_model([p.record for p in data.points], options, seed)
+    limit, rate = data.noise_threshold
+    answer = answer_from_model(model, data.space, limit, rate, len(done))
+    rec_unit = data.space.to_unit(np.asarray([list(answer.params.values())]))[0]
     d2 = min(2, data.space.dim)
-    base = data.best.record.unit
+    base = rec_unit
     u = np.linspace(0, 1, grid)
     if d2 == 2:
         uu, vv = np.meshgrid(u, u)
@@ -216,13 +222,15 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     else:
         x = u.reshape(-1, 1)
     mean, std = model.predict(x)
+    latent, latent_sd = model.latent(x)
     p0 = data.space.parameters[0]
     nat0 = scaled(p0.name, p0.from_unit(u))
-    limit, rate = data.noise_threshold
+    statement = _identifiability(data, answer)
     if not math.isfinite(limit):
         limit, rate = 1.0, math.nan
     inside = mean <= limit
-    statement = _identifiability(data, x, inside, mean, limit, rate)
+    # the plausible region's edge on this slice: m − 2 s = t(T) in the model's units
+    plausible = latent - REGION_SIGMAS * latent_sd - model.to_model_units(limit)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
     last_batch = max(p.record.batch for p in data.points)
     if d2 == 2:
@@ -235,6 +243,9 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
             fig.colorbar(cs, ax=ax)
             if np.any(inside):
                 ax.contour(nat0, nat1, mean.reshape(grid, grid), levels=[limit], colors="w", linewidths=1.5)
+            if plausible.min() < 0 < plausible.max():
+                ax.contour(nat0, nat1, plausible.reshape(grid, grid), levels=[0.0], colors="tab:orange",
+                           linewidths=1.5, linestyles="--")
             for p in data.points:
                 xy = (scaled(p0.name, p.record.natural[0]), scaled(p1.name, p.record.natural[1]))
                 if not math.isfinite(p.distance):
@@ -245,7 +256,10 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
                     ax.plot(*xy, "o", color="w", mec="k", ms=5)
             best = data.best.record.natural
             ax.plot(scaled(p0.name, best[0]), scaled(p1.name, best[1]), "D", mfc="none", mec="tab:red", mew=2,
-                    ms=12, label=f"best point {data.best.id}")
+                    ms=12, label=f"best observed point {data.best.id} (one draw of the noise)")
+            rec = list(answer.params.values())
+            ax.plot(scaled(p0.name, rec[0]), scaled(p1.name, rec[1]), "*", color="gold", mec="k", ms=16,
+                    label="recommendation (minimum of the model's mean); orange dashes: plausible region")
             if truth is not None:
                 ax.plot(scaled(p0.name, truth[0]), scaled(p1.name, truth[1]), "P", color="magenta", mec="k", ms=12,
                         label="truth (the pseudo-experiment's parameters)")
@@ -282,28 +296,22 @@ def _cell_words(data: CampaignData) -> str:
     return f" on the '{preset}' cell" if isinstance(preset, str) else ""
 
 
-def _identifiability(data: CampaignData, x: np.ndarray, inside: np.ndarray, mean: np.ndarray, limit: float,
-                     rate: float) -> str:
-    within = (f"within the noise (d ≤ {limit:.3g}, the metric's threshold that the true parameters stay below "
-              f"{rate:.0%} of the time)" if math.isfinite(rate) else f"within d ≤ {limit:.3g} (this metric states "
-              "no noise threshold)")
+def _identifiability(data: CampaignData, answer) -> str:
+    """The answer's statement (:meth:`calibrax.core.answer.Answer.summary`) and what would narrow it:
+    when the plausible region is most of the box, more replicates, more seeds or a less noisy
+    preset (more points alone do not); when it is empty, whether the surrogate has too few points
+    to say so yet."""
+    text = answer.summary()
     n_done = len(data.done)
     enough = 10 * data.space.dim  # the usual EGO rule of thumb: about 10 evaluations per dimension
-    if not np.any(inside):
-        few = (f" With {n_done} finished points the surrogate is rough (EGO usually needs about {enough} for "
-               f"{data.space.dim} parameters): run more iterations before concluding that" if n_done < enough else
-               " Then")
-        return (f"No parameter set is predicted {within}; the lowest predicted distance on the map is "
-                f"{mean.min():.2g}.{few} the model cannot reach the experiment in this box (widen the bounds, or "
-                "look for the missing effect: README, sim-to-real gap).")
-    nat = data.space.from_unit(x[inside])
-    parts = []
-    for j, p in enumerate(data.space.parameters[: x.shape[1]]):
-        lo, hi = scaled(p.name, nat[:, j].min()), scaled(p.name, nat[:, j].max())
-        parts.append(f"{label(p.name)} from {lo:.3g} to {hi:.3g}")
-    share = 100.0 * inside.mean()
-    text = f"Parameters predicted {within}: " + "; ".join(parts) + f" ({share:.0f} % of the searched box)."
-    if share >= 50.0:
+    if not math.isfinite(answer.threshold):
+        return text + " This metric states no noise threshold, so the answer has no plausible region."
+    if not answer.ranges:
+        if n_done < enough:
+            text += (f" With {n_done} finished points the surrogate is rough (EGO usually needs about {enough} for "
+                     f"{data.space.dim} parameters): run more iterations before concluding that.")
+        return text
+    if answer.region_share >= 0.5:
         return text + (f" The data do not constrain the parameters: with {n_done} simulations"
                        f"{_cell_words(data)} the experiment's replicate "
                        "spread and one simulation's seed noise leave most of the box as likely as the truth. More "

@@ -89,10 +89,14 @@ def status_text(store: CampaignStore) -> str:
     lines.append(f"\n{len(points)} points: {text}" + ("; the campaign is running" if live else ""))
     if counts["interrupted"]:
         lines.append("interrupted simulations run again when the campaign is run again (calibrax run CAMPAIGN.yaml)")
+    if summary.answer is not None:
+        from calibrax.core.answer import Answer
+
+        lines.append(f"answer: {Answer.from_dict(summary.answer).summary()}")
     if summary.best_id is not None:
         params = ", ".join(_with_unit(k, v) for k, v in summary.best_params.items())
-        lines.append(f"best (*): point {summary.best_id}: {params}; distance {summary.best_value:.3g} ± "
-                     f"{summary.best_uncertainty:.2g}, {summary.noise_text()}")
+        lines.append(f"best observed (*; one draw of the noise, not the answer): point {summary.best_id}: {params}; "
+                     f"distance {summary.best_value:.3g} ± {summary.best_uncertainty:.2g}, {summary.noise_text()}")
     lines.extend(experiment_lines(points))
     return "\n".join(lines)
 

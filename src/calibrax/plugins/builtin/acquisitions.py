@@ -1,7 +1,11 @@
-"""Builtin acquisitions: ``qei`` (the paper's q-point EI), ``qlogei``, ``qnei`` and ``sobol``.
+"""Builtin acquisitions: ``qei`` (the paper's q-point EI), ``qlogei``, ``qnei``, ``qlognei`` and
+``sobol``.
 
 All work in the unit cube on the :class:`~calibrax.core.surrogate.Kriging` model of −distance,
-through BoTorch's Monte-Carlo acquisition functions and ``optimize_acqf``.
+through BoTorch's Monte-Carlo acquisition functions and ``optimize_acqf``. ``qei`` and ``qlogei``
+take their incumbent ``best_f`` from the model's posterior mean at the evaluated points (option
+``best_f: posterior_mean``, the default): on noisy DEM the best *observed* distance is a lucky
+seed, and improving on it is a chase after noise (``best_f: observed`` is the textbook choice).
 """
 
 from __future__ import annotations
@@ -65,18 +69,35 @@ class _BoTorchAcquisition(abc.ABC):
         return cand.detach().numpy().reshape(q, space.dim)
 
 
-class QExpectedImprovement(_BoTorchAcquisition):
-    """q-point Expected Improvement (the paper's 2-point EI), best_f = the best observed distance."""
+class _ImprovementAcquisition(_BoTorchAcquisition):
+    """An improvement criterion over an incumbent ``best_f``: the best posterior mean at the
+    evaluated points (``posterior_mean``, default) or the best observation (``observed``)."""
+
+    OPTIONS = {**_BoTorchAcquisition.OPTIONS, "best_f": str}
+    BEST_F = ("posterior_mean", "observed")
+
+    def __init__(self, best_f: str = "posterior_mean", **options: int) -> None:
+        super().__init__(**options)
+        if best_f not in self.BEST_F:
+            raise ConfigError("acquisition.best_f", f"must be one of {list(self.BEST_F)}, got {best_f!r}")
+        self.best_f = best_f
+
+    def incumbent(self, model: "Kriging") -> float:
+        return model.best_posterior_mean() if self.best_f == "posterior_mean" else float(model.train_y.max())
+
+
+class QExpectedImprovement(_ImprovementAcquisition):
+    """q-point Expected Improvement (the paper's 2-point EI) over the incumbent ``best_f``."""
 
     name = "qei"
 
     def build(self, model, observations, pending, sampler):
         from botorch.acquisition import qExpectedImprovement
 
-        return qExpectedImprovement(model.model, best_f=model.train_y.max(), sampler=sampler, X_pending=pending)
+        return qExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler, X_pending=pending)
 
 
-class QLogExpectedImprovement(_BoTorchAcquisition):
+class QLogExpectedImprovement(_ImprovementAcquisition):
     """qLogEI: the same criterion on a log scale, numerically robust when EI is tiny."""
 
     name = "qlogei"
@@ -84,7 +105,8 @@ class QLogExpectedImprovement(_BoTorchAcquisition):
     def build(self, model, observations, pending, sampler):
         from botorch.acquisition.logei import qLogExpectedImprovement
 
-        return qLogExpectedImprovement(model.model, best_f=model.train_y.max(), sampler=sampler, X_pending=pending)
+        return qLogExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler,
+                                       X_pending=pending)
 
 
 class QNoisyExpectedImprovement(_BoTorchAcquisition):
@@ -99,6 +121,18 @@ class QNoisyExpectedImprovement(_BoTorchAcquisition):
                                          X_pending=pending, prune_baseline=True)
 
 
+class QLogNoisyExpectedImprovement(_BoTorchAcquisition):
+    """qLogNEI: qNEI on a log scale (BoTorch's recommended default for noisy objectives)."""
+
+    name = "qlognei"
+
+    def build(self, model, observations, pending, sampler):
+        from botorch.acquisition.logei import qLogNoisyExpectedImprovement
+
+        return qLogNoisyExpectedImprovement(model.model, X_baseline=model.train_x, sampler=sampler,
+                                            X_pending=pending, prune_baseline=True)
+
+
 class SobolAcquisition:
     """Space-filling baseline: the next points of a scrambled Sobol sequence (ignores the model)."""
 
@@ -109,6 +143,18 @@ class SobolAcquisition:
     def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
         return sobol_points(space.dim, q, seed=seed, skip=len(observations.x) + (0 if pending is None else len(pending)))
+
+
+class RandomAcquisition:
+    """Uniform random points (a baseline; ignores the model)."""
+
+    name = "random"
+    needs_model = False
+    OPTIONS: dict[str, type] = {}
+
+    def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
+                pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+        return np.random.default_rng(seed).random((q, space.dim))
 
 
 def sobol_points(dim: int, n: int, seed: int = 0, skip: int = 0) -> np.ndarray:
@@ -124,4 +170,5 @@ def sobol_points(dim: int, n: int, seed: int = 0, skip: int = 0) -> np.ndarray:
 
 @hookimpl
 def calibrax_acquisitions() -> list[type]:
-    return [QExpectedImprovement, QLogExpectedImprovement, QNoisyExpectedImprovement, SobolAcquisition]
+    return [QExpectedImprovement, QLogExpectedImprovement, QNoisyExpectedImprovement, QLogNoisyExpectedImprovement,
+            SobolAcquisition, RandomAcquisition]

@@ -172,8 +172,10 @@ class RobustMetric:
         return out
 
     def _experiment_summary(self, experiment: Experiment) -> dict[str, Any]:
-        per = [self._aggregate(f) for f in experiment_features(experiment).values()]
-        return {k: v for k, v in summarise(per).items() if k in self.stems}
+        return self._replicate_summary([self._aggregate(f) for f in experiment_features(experiment).values()])
+
+    def _replicate_summary(self, replicates: list[dict[str, float]]) -> dict[str, Any]:
+        return {k: v for k, v in summarise(replicates).items() if k in self.stems}
 
     def scales(self, experiment: Experiment) -> dict[str, float]:
         """The experiment's replicate spread of each feature used; ConfigError when there is none."""
@@ -191,10 +193,15 @@ class RobustMetric:
         return spread
 
     def evaluate(self, results: list[ShearTestResult], experiment: Experiment) -> MetricValue:
-        exp = self._experiment_summary(experiment)
-        sims = [self._aggregate(result_features(r)) for r in results]
+        return self.evaluate_features([self._aggregate(result_features(r)) for r in results],
+                                      [self._aggregate(f) for f in experiment_features(experiment).values()])
+
+    def evaluate_features(self, sims: list[dict[str, float]], replicates: list[dict[str, float]]) -> MetricValue:
+        """The distance from the metric's features directly: ``sims`` one dict per seed and
+        ``replicates`` one per experimental replicate, each {stem: value} (``peak_ratio`` …)."""
+        exp = self._replicate_summary(replicates)
         sim = summarise(sims)
-        n_sim = len(results)
+        n_sim = len(sims)
         total, dofs, feats, seed_var = 0.0, [], {}, {}
         for name, e in exp.items():
             if name not in sim:
