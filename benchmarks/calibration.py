@@ -21,8 +21,8 @@ threshold) at n and at every later batch. Printed per strategy, as medians and q
 targets: simulations to reach (budget + 1 when never reached within the budget), the final
 recommendation's parameter error (unit cube: E on its log scale), the final D / T, false
 identifications (a parameter the answer calls constrained while the surface's own plausible region
-spans ≥ 80 % of its range), and the proposal overhead (seconds of model fit and acquisition per
-batch).
+spans ≥ 80 % of its range), and the overhead: seconds of model work per batch (Kriging fits,
+acquisition optimisation and the answer's evaluation).
 
 Strategies: ``default`` (qEI, q = 2, on the noise-aware log1p Kriging model, best_f from the
 posterior mean, the answer's recommendation), ``qei_plain`` (the former search: qEI on a plain
@@ -259,7 +259,7 @@ class Score:
     error_mu: float
     final_ratio: float  # final D / T
     false_ids: int  # parameters claimed constrained that the surface leaves unconstrained
-    overhead: float  # median seconds per proposal (nan: none)
+    overhead: float  # seconds of model work (fits, acquisition, answers) per batch (nan: none)
 
 
 def score(trace: Trace, problem: Problem, budget: int) -> Score:
@@ -273,7 +273,7 @@ def score(trace: Trace, problem: Problem, budget: int) -> Score:
     false_ids = sum(1 for k, v in claims.items() if v and not problem.constrained.get(k, True))
     err = np.abs(trace.final - problem.truth)
     return Score(reached, float(err[0]), float(err[1]), trace.checkpoints[-1][1] / problem.threshold, false_ids,
-                 float(np.median(trace.overhead)) if trace.overhead else math.nan)
+                 sum(trace.overhead) / max(1, len(trace.checkpoints) - 1) if trace.overhead else math.nan)
 
 
 def _one(args: tuple[str, int, int, int, int, str]) -> tuple[str, int, Score]:
@@ -307,7 +307,7 @@ def _quartiles(v: list[float]) -> str:
 
 def table(results: dict[str, list[Score]], budget: int) -> str:
     lines = ["| strategy | targets | simulations to reach T (median [IQR]) | reached | E error (unit) | "
-             "μs error | final D/T | false identifications | s per proposal |",
+             "μs error | final D/T | false identifications | model s per batch |",
              "|---|---|---|---|---|---|---|---|---|"]
     for name, scores in results.items():
         lines.append(

@@ -46,7 +46,8 @@ def _best_line(data: CampaignData) -> str:
         return "No point has finished yet."
     params = ", ".join(f"{figures.label(n)} = {figures.scaled(n, v):.4g}" for n, v in b.record.params().items())
     m = b.record.metric
-    return (f"Best point {b.id}: {params}; distance {b.distance:.3g} ± {m.uncertainty:.2g}, "
+    return (f"Best observed point {b.id} (one draw of the noise, not the answer): {params}; "
+            f"distance {b.distance:.3g} ± {m.uncertainty:.2g}, "
             f"{noise_text(b.distance, m.threshold, m.threshold_rate)}; "
             f"C = {b.cohesion:.0f} ± {b.cohesion_stderr:.0f} Pa, AIF = {b.aif:.1f} ± {b.aif_stderr:.1f}°.")
 
@@ -72,7 +73,7 @@ def _markdown(data: CampaignData, statement: str) -> str:
     lines = [f"# Campaign {cfg['name']}", "",
              f"Simulator `{cfg['simulator']}`, acquisition `{cfg['acquisition']['name']}` (q = {cfg['acquisition']['q']}), "
              f"{len(data.points)} points, {len(data.done)} finished, {len(data.failures)} failed simulation(s).", "",
-             _best_line(data), "", statement, "", "| " + " | ".join(_header(data)) + " |",
+             f"**Answer.** {statement}", "", _best_line(data), "", "| " + " | ".join(_header(data)) + " |",
              "|" + "---|" * len(_header(data))]
     lines += ["| " + " | ".join(r) + " |" for r in _rows(data)]
     if data.failures:
@@ -96,7 +97,7 @@ def _html(data: CampaignData, files: dict[str, list[str]], statement: str) -> st
              f"(q = {cfg['acquisition']['q']}); {len(data.points)} points, {len(data.done)} finished, "
              + (f"<span class='failed'>{len(data.failures)} failed simulation(s)</span>" if data.failures
                 else "no failed simulation") + f". Store: <code>{e(str(data.store))}</code></p>",
-             f"<p><b>{e(_best_line(data))}</b></p>", f"<p>{e(statement)}</p>"]
+             f"<p><b>Answer.</b> {e(statement)}</p>", f"<p>{e(_best_line(data))}</p>"]
     for key, names in files.items():
         png = [n for n in names if n.endswith(".png")]
         if png:
