@@ -37,28 +37,31 @@ def test_a_strategy_spends_its_budget_in_batches_and_is_scored(surface, name):
         problem = bench.Problem.make(surface, target)
         assert np.isfinite(problem.threshold) and problem.threshold > 0
         trace = bench.run_strategy(name, problem, budget, q, initial, seed=11 + target)
-        assert [n for n, _, _ in trace.checkpoints] == [4, 6, 8]
-        assert all(np.isfinite(d) and d >= 0 for _, d, _ in trace.checkpoints)
+        assert [c[0] for c in trace.checkpoints] == [4, 6, 8]
+        assert all(np.isfinite(c[1]) and c[1] >= 0 and np.isfinite(c[2]) and c[2] >= 0 for c in trace.checkpoints)
         assert trace.final.shape == (2,) and np.all((trace.final >= 0) & (trace.final <= 1))
         s = bench.score(trace, problem, budget)
-        assert s.reached in (4, 6, 8, budget + 1)
-        assert s.final_ratio == pytest.approx(trace.checkpoints[-1][1] / problem.threshold)
+        assert s.reached in (4, 6, 8, budget + 1) and s.reached_metric in (4, 6, 8, budget + 1)
+        assert s.final_ratio == pytest.approx(trace.checkpoints[-1][2] / bench.T_EXPERIMENT)
         if name == "default":
-            assert set(trace.checkpoints[-1][2]) == {"youngs_modulus", "sliding_friction"}
+            assert set(trace.checkpoints[-1][3]) == {"youngs_modulus", "sliding_friction"}
             assert len(trace.overhead) == 3 + 2  # 3 answers and 2 proposals
             assert s.overhead == pytest.approx(sum(trace.overhead) / 2)
         else:
-            assert trace.checkpoints[-1][2] is None and not trace.overhead
+            assert trace.checkpoints[-1][3] is None and not trace.overhead
 
 
 def test_reached_means_within_the_threshold_from_then_on():
     problem = bench.Problem.__new__(bench.Problem)
     problem.threshold, problem.truth, problem.constrained = 2.0, np.array([0.5, 0.5]), {"youngs_modulus": False}
-    trace = bench.Trace([(4, 1.0, None), (6, 3.0, None), (8, 1.5, None), (10, 1.9, None)], np.array([0.5, 0.6]))
-    assert bench.score(trace, problem, 10).reached == 8  # within at 4, out at 6, within from 8 on
-    trace.checkpoints[-1] = (10, 2.5, {"youngs_modulus": True})
+    # (n, D, E, claims): D against the metric's threshold 2.0, E against 2.8
+    trace = bench.Trace([(4, 1.0, 1.0, None), (6, 3.0, 3.0, None), (8, 1.5, 2.0, None), (10, 1.9, 2.7, None)],
+                        np.array([0.5, 0.6]))
     s = bench.score(trace, problem, 10)
-    assert s.reached == 11 and s.false_ids == 1 and s.error_mu == pytest.approx(0.1)
+    assert s.reached == s.reached_metric == 8  # within at 4, out at 6, within from 8 on
+    trace.checkpoints[-1] = (10, 2.5, 1.0, {"youngs_modulus": True})
+    s = bench.score(trace, problem, 10)
+    assert s.reached == 8 and s.reached_metric == 11 and s.false_ids == 1 and s.error_mu == pytest.approx(0.1)
 
 
 def test_the_command_prints_one_row_per_strategy(capsys):
