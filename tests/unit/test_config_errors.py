@@ -137,3 +137,21 @@ def test_bad_surrogate_options_name_the_key(tmp_path, surrogate, key):
     with pytest.raises(ConfigError) as err:
         load_config(write_double_campaign(tmp_path, surrogate=surrogate))
     assert err.value.key == key
+
+
+def test_a_field_added_later_leaves_the_search_hash_of_older_stores_alone(tmp_path):
+    """geometry.wall_rolling_friction (issue 22) at its default does not enter the search hash, so a
+    store made before the field existed resumes; set, it does."""
+    from calibrax import load_config
+    from tests.conftest import write_double_campaign
+
+    config = load_config(write_double_campaign(tmp_path))
+    older = {k: v for k, v in config.resolved.items()}
+    older["cell"] = {**older["cell"], "geometry": {k: v for k, v in older["cell"]["geometry"].items()
+                                                   if k != "wall_rolling_friction"}}
+    import dataclasses
+
+    assert dataclasses.replace(config, resolved=older).search_hash() == config.search_hash()
+    changed = load_config(write_double_campaign(tmp_path, cell={"preset": "tiny",
+                                                                "geometry": {"wall_rolling_friction": 0.1}}))
+    assert changed.search_hash() != config.search_hash()

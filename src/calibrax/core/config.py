@@ -43,6 +43,9 @@ ROOT_KEYS = {
     "surrogate": "{transform: log1p or identity, noise: metric or fitted} of the Kriging model",
     "enqueue": "a list of {parameter: value} points to simulate first, before the Sobol design",
 }
+#: spec fields added after stores existed, with their defaults: left out of the search hash while
+#: they hold them, so that a store made before the field existed still resumes
+ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None}
 #: the Kriging model's options and their defaults (calibrax.core.surrogate)
 SURROGATE_DEFAULTS = {"transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"transform": ("log1p", "identity"), "noise": ("metric", "fitted")}
@@ -92,6 +95,14 @@ class CampaignConfig:
         # data whatever proposed them
         keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
                                                                       "description", "name", "surrogate", "enqueue")}
+        keep = json.loads(json.dumps(keep))
+        for path, default in ADDED_FIELDS.items():
+            *parents, last = path
+            node = keep
+            for key in parents:
+                node = node.get(key, {}) if isinstance(node, dict) else {}
+            if isinstance(node, dict) and last in node and node[last] == default:
+                del node[last]
         return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
