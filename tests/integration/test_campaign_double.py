@@ -88,3 +88,36 @@ def test_enqueued_points_run_first_and_a_resume_runs_new_ones(tmp_path):
     points = store.points()
     assert summary.points == 5 and points[-1].acquisition == "enqueued" and points[-1].batch == 1
     assert points[-1].params() == pytest.approx({k: float(v) for k, v in later.items()})
+
+
+def test_warm_start_takes_an_earlier_stores_results_without_simulating_them(tmp_path):
+    """A new campaign warm-started from an earlier store (Ax's and Optuna's warm start) begins with
+    its finished points, scored by the new campaign's metric, and simulates only its own design
+    and iterations; a store of another cell is refused, naming warm_start."""
+    from calibrax.errors import ConfigError
+
+    earlier = tmp_path / "earlier"
+    earlier.mkdir()
+    run_campaign(load_config(write_double_campaign(earlier, budget={"initial": 4, "iterations": 0})))
+    old = CampaignStore(earlier / "runs/double.h5")
+    later = tmp_path / "later"
+    later.mkdir()
+    path = write_double_campaign(later, warm_start=str(earlier / "runs/double.h5"),
+                                 budget={"initial": 2, "iterations": 1}, metric="robust")
+    events = []
+    summary = run_campaign(load_config(path), events.append)
+    points = CampaignStore(later / "runs/double.h5").points()
+    assert summary.points == 4 + 2 + 2
+    assert sum(e["event"] == "started" for e in events) == 4  # the earlier four were not simulated again
+    warm = [p for p in points if p.acquisition == "warm_start"]
+    assert [p.params() for p in warm] == [p.params() for p in old.points()]
+    assert all(p.metric is not None and p.metric.features.get("peak_ratio_sim") is not None for p in warm)
+    other = tmp_path / "other"
+    other.mkdir()
+    with pytest.raises(ConfigError) as err:
+        load_config(write_double_campaign(other, warm_start=str(earlier / "runs/double.h5"),
+                                          cell={"preset": "quick"}))
+    assert err.value.key == "warm_start" and "different cell" in str(err.value)
+    with pytest.raises(ConfigError) as err:
+        load_config(write_double_campaign(other, warm_start="nowhere.h5"))
+    assert err.value.key == "warm_start"

@@ -97,6 +97,8 @@ class _InFlight:
 #: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
 #: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
 EXPERIMENT_SEED_BASE = 2**30
+#: the source of the points a campaign was warm-started with
+WARM_START = "warm_start"
 
 
 def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
@@ -186,8 +188,10 @@ class Campaign:
 
         with CampaignStore(cfg.store).acquire(cfg.search_hash()) as store:
             created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
+            if created and cfg.warm_start is not None:
+                self._warm_start(store, cfg.warm_start)
             points = store.points()
-            target = cfg.target_points
+            target = self._target(points)
             self._sims_total = max(target, len(points)) * cfg.seeds_per_point
             stored = sum(1 for p in points for s in p.sims if s.status != "pending")
             self._sims_started = self._sims_finished = stored
@@ -209,14 +213,13 @@ class Campaign:
             executor = get_manager().create("executor", cfg.executor, **cfg.executor_options)
             self._capacity = max(1, executor.capacity)
             try:
-                if not store.points():
+                for p in store.points():
+                    self._submit(executor, p)
+                if not [p for p in store.points() if p.acquisition != WARM_START]:
                     design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
                     enq = self._unqueued(store.points())
                     source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
                     self._add_batch(store, executor, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
-                else:
-                    for p in store.points():
-                        self._submit(executor, p)
                 self._loop(store, executor)
             except BaseException:
                 executor.shutdown(cancel=True)
@@ -227,10 +230,10 @@ class Campaign:
 
     def _loop(self, store: CampaignStore, executor) -> None:
         cfg = self.config
-        target = cfg.target_points
         last_beat = time.monotonic()
         while True:
             points = store.points()
+            target = self._target(points)
             running = {job.point.id for job in self._inflight.values()}
             if len(points) < target:
                 batch = max(p.batch for p in points) + 1
@@ -254,6 +257,42 @@ class Campaign:
             if time.monotonic() - last_beat >= HEARTBEAT_S and self._inflight:
                 last_beat = time.monotonic()
                 self._heartbeat()
+
+    def _target(self, points: list[PointRecord]) -> int:
+        """Points the campaign simulates: the config's, plus those it was warm-started with."""
+        return self.config.target_points + sum(1 for p in points if p.acquisition == WARM_START)
+
+    def _warm_start(self, store: CampaignStore, path: Path) -> None:
+        """Start a new store with every finished simulation of an earlier one (same simulator, cell
+        and parameters, checked when the config was read) whose point lies in this box, as batch 0,
+        scored with this campaign's metric and experiment; nothing is re-simulated."""
+        cfg = self.config
+        earlier = CampaignStore(path)
+        taken, outside = 0, 0
+        for p in earlier.points():
+            done = [s for s in p.sims if s.status == "done"]
+            if not done:
+                continue
+            params = p.params()
+            natural = np.asarray([[params[n] for n in cfg.space.names]])
+            if not all(q.low <= v <= q.high for q, v in zip(cfg.space.parameters, natural[0])):
+                outside += 1
+                continue
+            (pid,) = store.add_batch(0, cfg.space.to_unit(natural), natural, list(cfg.space.names),
+                                     [[s.seed for s in done]], WARM_START, None)
+            results = [earlier.result(p.id, s.index) for s in done]
+            metric, error = None, ""
+            try:
+                metric = self.metric.evaluate(results, cfg.experiment)
+            except CalibraxError as exc:
+                error = str(exc)
+            for k, (s, result) in enumerate(zip(done, results)):
+                last = k == len(done) - 1
+                store.add_simulation(pid, k, s.seed, result, wall_time=s.wall_time, metric=metric if last else None,
+                                     metric_error=error if last else "")
+            taken += 1
+        self._emit("warm_start", f"warm start from {path}: {taken} finished point(s) taken"
+                   + (f", {outside} outside this box left out" if outside else ""), points=taken, outside=outside)
 
     def _unqueued(self, points: list[PointRecord]) -> np.ndarray:
         """The enqueued points (unit cube, shape (k, dim)) not yet in the store."""

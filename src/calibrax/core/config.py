@@ -42,6 +42,8 @@ ROOT_KEYS = {
     "seeds_per_point": "simulations (different seeds) per parameter point",
     "surrogate": "{transform: log1p or identity, noise: metric or fitted} of the Kriging model",
     "enqueue": "a list of {parameter: value} points to simulate first, before the Sobol design",
+    "warm_start": "an earlier campaign's store (same simulator, cell and parameters) whose finished "
+                  "simulations a new store starts with",
 }
 #: spec fields added after stores existed, with their defaults: left out of the search hash while
 #: they hold them, so that a store made before the field existed still resumes
@@ -82,6 +84,8 @@ class CampaignConfig:
     surrogate: dict[str, str] = field(default_factory=lambda: dict(SURROGATE_DEFAULTS))
     #: hand-chosen points (natural units), shape (k, dim), simulated first
     enqueue: tuple[tuple[float, ...], ...] = ()
+    #: an earlier store whose finished simulations a new store starts with (None: none)
+    warm_start: Path | None = None
 
     @property
     def target_points(self) -> int:
@@ -94,7 +98,8 @@ class CampaignConfig:
         # the surrogate's options and the enqueued points may change on resume: stored points are
         # data whatever proposed them
         keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
-                                                                      "description", "name", "surrogate", "enqueue")}
+                                                                      "description", "name", "surrogate", "enqueue",
+                                                                      "warm_start")}
         keep = json.loads(json.dumps(keep))
         for path, default in ADDED_FIELDS.items():
             *parents, last = path
@@ -209,6 +214,56 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
                 raise ConfigError(f"{key}.{opt}", f"must be a mapping of names to numbers, got {value!r}")
             options[opt] = {str(k): _number(f"{key}.{opt}.{k}", v) for k, v in value.items()}
     return name, options
+
+
+def _comparable_cell(cell: dict[str, Any], names: tuple[str, ...]) -> dict[str, Any]:
+    """A resolved cell without what differs between the points of one campaign: the calibrated
+    material values and the seed."""
+    cell = json.loads(json.dumps(cell))
+    for path, default in ADDED_FIELDS.items():
+        if path[0] == "cell" and cell.get(path[1], {}).get(path[2], default) == default:
+            cell.get(path[1], {}).pop(path[2], None)
+    for name in names:
+        cell.get("material", {}).pop(name, None)
+    cell.get("numerics", {}).pop("seed", None)
+    return cell
+
+
+def check_warm_start(path: Path, resolved: dict[str, Any], space: ParameterSpace) -> None:
+    """``warm_start`` must be a calibrax store made with the same simulator, cell (calibrated values
+    and seed aside) and calibrated parameters; ConfigError naming what differs otherwise."""
+    from calibrax.core.store import CampaignStore
+    from calibrax.errors import StoreError
+
+    if not path.is_file():
+        raise ConfigError("warm_start", f"{path} is not a file; give an earlier campaign's store")
+    try:
+        earlier = CampaignStore(path).config()
+    except (StoreError, KeyError, ValueError) as exc:
+        raise ConfigError("warm_start", f"{path} is not a calibrax store ({exc})") from None
+    if earlier.get("simulator") != resolved["simulator"]:
+        raise ConfigError("warm_start", f"{path} was run on {earlier.get('simulator')!r}, this campaign on "
+                          f"{resolved['simulator']!r}: their results are not the same experiment's")
+    if sorted(earlier.get("parameters", {})) != sorted(space.names):
+        raise ConfigError("warm_start", f"{path} calibrated {sorted(earlier.get('parameters', {}))}, this campaign "
+                          f"{sorted(space.names)}; warm-start needs the same parameters")
+    mine = _flat(_comparable_cell(resolved["cell"], space.names))
+    theirs = _flat(_comparable_cell(earlier.get("cell", {}), space.names))
+    diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+    if diff:
+        raise ConfigError("warm_start", f"{path} simulated a different cell (cell.{', cell.'.join(diff[:4])} "
+                          "differ); warm-start needs the same cell")
+
+
+def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """{"a": {"b": 1}} → {"a.b": 1}."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
 
 
 def _enqueued(raw: Any, space: ParameterSpace) -> tuple[tuple[float, ...], ...]:
@@ -347,6 +402,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
             raise ConfigError(f"surrogate.{key}", f"must be one of {list(SURROGATE_CHOICES[key])}, got {value!r}")
         surrogate[key] = value
     enqueue = _enqueued(raw.get("enqueue", []), space)
+    warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
     # Build the plugins once so their own option checks run now, not mid-campaign.
     from calibrax.core.simulator import check_capabilities
     from calibrax.plugins.manager import get_manager
@@ -373,7 +429,10 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         "executor": {"name": executor, **exec_options}, "store": str(store), "workdir": str(workdir),
         "seed": seed, "seeds_per_point": seeds_per_point, "surrogate": surrogate,
         **({"enqueue": [list(row) for row in enqueue]} if enqueue else {}),
+        **({"warm_start": str(warm_start)} if warm_start else {}),
     }
+    if warm_start is not None:
+        check_warm_start(warm_start, resolved, space)
     return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
                           acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
-                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue)
+                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start)
