@@ -71,7 +71,7 @@ def test_the_statement_says_when_the_data_do_not_constrain_the_parameters():
     assert "100 % of the box" in everywhere and "do not constrain the parameters" in everywhere
     assert "E anywhere in 5 GPa to 50 GPa: the test does not constrain it" in everywhere
     assert "μs = 0.35 (plausible 0.3 to 0.4)" in everywhere
-    assert "6 simulations on the 'tiny' cell" in everywhere and "seeds_per_point" in everywhere
+    assert "6 points (6 simulations) on the 'tiny' cell" in everywhere and "seeds_per_point" in everywhere
     nowhere = _identifiability(_data(6), _answer({}, 0.0))
     assert "With 6 finished points the surrogate is rough" in nowhere and "about 20 for 2 parameters" in nowhere
     assert "cannot reach" in _identifiability(_data(30), _answer({}, 0.0))

@@ -243,9 +243,12 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
             fig.colorbar(cs, ax=ax)
             if np.any(inside):
                 ax.contour(nat0, nat1, mean.reshape(grid, grid), levels=[limit], colors="w", linewidths=1.5)
-            if plausible.min() < 0 < plausible.max():
-                ax.contour(nat0, nat1, plausible.reshape(grid, grid), levels=[0.0], colors="tab:orange",
-                           linewidths=1.5, linestyles="--")
+            if plausible.max() > 0:  # hatch what the model rules out, edge dashed
+                ax.contourf(nat0, nat1, plausible.reshape(grid, grid), levels=[0.0, float(plausible.max())],
+                            colors="none", hatches=["//"])
+                if plausible.min() < 0:
+                    ax.contour(nat0, nat1, plausible.reshape(grid, grid), levels=[0.0], colors="tab:orange",
+                               linewidths=1.5, linestyles="--")
             for p in data.points:
                 xy = (scaled(p0.name, p.record.natural[0]), scaled(p1.name, p.record.natural[1]))
                 if not math.isfinite(p.distance):
@@ -259,7 +262,8 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
                     ms=12, label=f"best observed point {data.best.id} (one draw of the noise)")
             rec = list(answer.params.values())
             ax.plot(scaled(p0.name, rec[0]), scaled(p1.name, rec[1]), "*", color="gold", mec="k", ms=16,
-                    label="recommendation (minimum of the model's mean); orange dashes: plausible region")
+                    label="recommendation (minimum of the model's mean); hatched: ruled out, "
+                          "orange dashes: edge of the plausible region")
             if truth is not None:
                 ax.plot(scaled(p0.name, truth[0]), scaled(p1.name, truth[1]), "P", color="magenta", mec="k", ms=12,
                         label="truth (the pseudo-experiment's parameters)")
@@ -312,7 +316,8 @@ def _identifiability(data: CampaignData, answer) -> str:
                      f"{data.space.dim} parameters): run more iterations before concluding that.")
         return text
     if answer.region_share >= 0.5:
-        return text + (f" The data do not constrain the parameters: with {n_done} simulations"
+        n_sims = sum(1 for p in data.done for s in getattr(p.record, "sims", []) if s.status == "done") or n_done
+        return text + (f" The data do not constrain the parameters: with {n_done} points ({n_sims} simulations)"
                        f"{_cell_words(data)} the experiment's replicate "
                        "spread and one simulation's seed noise leave most of the box as likely as the truth. More "
                        "replicates in the experiment, more seeds per point (seeds_per_point) or a less noisy "
