@@ -19,7 +19,7 @@ EXAMPLES = """\
 examples:
   calibrax run examples/quickstart.yaml            run (or resume) a campaign
   calibrax run examples/quickstart.yaml --check    validate it and print the resolved settings
-  calibrax status runs/quickstart.h5               points, results and the best point so far
+  calibrax status runs/quickstart.h5               points, results and the answer so far
   calibrax export runs/quickstart.h5               trials as CSV (runs/quickstart-trials.csv)
   calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
   calibrax plugins                                 registered simulators, metrics, acquisitions…
@@ -39,20 +39,24 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run or resume a calibration campaign",
                          description="Run the campaign of CONFIG, or resume it from its store: finished "
-                                     "simulations are never repeated. Exit codes: 0 done, 2 bad input, "
-                                     "1 other error, 130 stopped (run again to resume).")
+                                     "simulations are never repeated. It ends with the answer: the Kriging "
+                                     "model's recommendation, the plausible range of each parameter and "
+                                     "whether the test constrains it (README, 'The answer, not the best "
+                                     "point'). Exit codes: 0 done, 2 bad input, 1 other error, 130 stopped "
+                                     "(run again to resume).")
     run.add_argument("config", type=Path, help="campaign YAML file (see README, 'Campaign file')")
     run.add_argument("--check", action="store_true",
                      help="validate CONFIG and every file it names, print the resolved settings, run nothing")
     run.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
     run.add_argument("-q", "--quiet", action="store_true", help="print only warnings and the final summary")
     run.add_argument("--json", action="store_true",
-                     help="print progress as JSON lines on stdout (one event per line: campaign, proposed, started, "
-                          "running, done, failed, model, summary); human logs are silenced")
+                     help="print progress as JSON lines on stdout (one event per line: campaign, warm_start, proposed, "
+                          "started, running, done, failed, model, answer, summary); human logs are silenced")
 
-    status = sub.add_parser("status", help="show a campaign store: points, results, best point",
+    status = sub.add_parser("status", help="show a campaign store: points, results, the answer",
                             description="A table of every point of the store: parameters, status, C, AIF, "
-                                        "distance, wall time; then the best point.")
+                                        "distance, wall time; then the answer (recommendation, plausible "
+                                        "ranges, what the test constrains) and the best observed point.")
     status.add_argument("store", type=Path, help="the campaign's HDF5 store")
     status.add_argument("--json", action="store_true", help="print machine-readable JSON instead of a table")
 
