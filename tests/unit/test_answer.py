@@ -103,3 +103,10 @@ def test_the_marginals_are_botorchs_posterior():
     np.testing.assert_allclose(sd, post.variance.sqrt().squeeze(-1).numpy(), rtol=1e-5, atol=1e-9)
     _, sd_new = model.latent(x, observation_noise=True)
     assert np.all(sd_new > sd)
+
+
+def test_a_metric_without_a_threshold_gets_a_recommendation_and_no_region():
+    model, x, y = _fit(lambda x, rng: _valley(x, rng, 0.7), n=12)
+    answer = answer_from_model(model, SPACE, float("nan"), float("nan"), len(y))
+    assert answer.ranges == {} and set(answer.params) == {"youngs_modulus", "sliding_friction"}
+    assert "no noise threshold" in answer.statement() and "Recommended: " in answer.summary()

@@ -78,6 +78,9 @@ class Answer:
 
     def statement(self) -> str:
         """"μs = 0.33 (plausible 0.29–0.38); E anywhere in 5–50 GPa: the test does not constrain it."."""
+        if not math.isfinite(self.threshold):
+            return ("This metric states no noise threshold, so there is no plausible region to tell which "
+                    "parameters the test constrains.")
         if not self.ranges:
             return (f"No parameter set in the box is plausible: the model rules out every point reaching the noise "
                     f"threshold d = {self.threshold:.3g} (lowest predicted d = {self.predicted:.3g} at the "
