@@ -121,3 +121,15 @@ def test_warm_start_takes_an_earlier_stores_results_without_simulating_them(tmp_
     with pytest.raises(ConfigError) as err:
         load_config(write_double_campaign(other, warm_start="nowhere.h5"))
     assert err.value.key == "warm_start"
+
+
+def test_patience_stops_a_campaign_whose_answer_has_settled(tmp_path):
+    """budget.patience: once the recommendation and the plausible region have stopped moving for
+    that many batches, no more points are proposed; the rest of the budget is not spent."""
+    events = []
+    path = write_double_campaign(tmp_path, budget={"initial": 6, "iterations": 12, "patience": 2})
+    summary = run_campaign(load_config(path), events.append)
+    stops = [e for e in events if e["event"] == "stopped_early"]
+    assert len(stops) == 1 and summary.points < 6 + 12 * 2, summary.points
+    answers = [e for e in events if e["event"] == "answer"]
+    assert summary.answer is not None and len(answers) >= 3

@@ -110,3 +110,19 @@ def test_a_metric_without_a_threshold_gets_a_recommendation_and_no_region():
     answer = answer_from_model(model, SPACE, float("nan"), float("nan"), len(y))
     assert answer.ranges == {} and set(answer.params) == {"youngs_modulus", "sliding_friction"}
     assert "no noise threshold" in answer.statement() and "Recommended: " in answer.summary()
+
+
+def _at(e: float, mu: float, share: float) -> Answer:
+    return Answer(params={"youngs_modulus": e, "sliding_friction": mu}, predicted=1.0, predicted_sd=0.1,
+                  threshold=THRESHOLD, rate=0.95, ranges={}, constrained={}, region_share=share, n_points=10)
+
+
+def test_the_stopping_rule_waits_for_patience_settled_batches():
+    from calibrax.core.campaign import settled
+
+    moving = [_at(2e10, 0.30, 0.5), _at(2e10, 0.40, 0.5), _at(2e10, 0.401, 0.5), _at(2e10, 0.402, 0.505)]
+    assert not settled(moving, SPACE, 0)  # patience 0: never stop
+    assert settled(moving, SPACE, 2)  # the last two changes were both below 2 % of the box
+    assert not settled(moving, SPACE, 3)  # the third-last moved μs by 0.1 / 0.8 of its range
+    shrinking = [_at(2e10, 0.4, 0.5), _at(2e10, 0.4, 0.4), _at(2e10, 0.4, 0.39)]
+    assert not settled(shrinking, SPACE, 2)  # the region still shrank by 10 % of the box

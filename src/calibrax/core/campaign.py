@@ -180,6 +180,8 @@ class Campaign:
         self._capacity = 1
         self._starts = StartTracker(self._on_start)
         self._model = None  # the last Kriging model fitted for a proposal
+        self._answers: list[Answer] = []  # this run's answers, one per model batch
+        self._stopped = False  # the answer settled (budget.patience): no more proposals
 
     # ------------------------------------------------------------------------------------------
     def run(self) -> CampaignSummary:
@@ -235,7 +237,7 @@ class Campaign:
             points = store.points()
             target = self._target(points)
             running = {job.point.id for job in self._inflight.values()}
-            if len(points) < target:
+            if len(points) < target and not self._stopped:
                 batch = max(p.batch for p in points) + 1
                 enq = self._unqueued(points)
                 if len(enq) and (cfg.batching == "async" or not running):
@@ -321,6 +323,16 @@ class Campaign:
         answer = answer_from_model(model, self.config.space, threshold, rate, len(finished))
         store.write_answer(answer.to_dict())
         self._emit("answer", f"answer from {len(finished)} points: {answer.summary()}", answer=answer.to_dict())
+        self._answers.append(answer)
+
+    def _check_settled(self) -> None:
+        """budget.patience: stop proposing once the answer has settled."""
+        if not self._stopped and settled(self._answers, self.config.space, self.config.patience):
+            self._stopped = True
+            self._emit("stopped_early", f"stopping early: the answer has settled for {self.config.patience} batches "
+                       f"(recommendation within {SETTLED_MOVE:.0%} of the box, plausible region within "
+                       f"{SETTLED_SHARE:.0%} of it); budget.patience = 0 runs the whole budget",
+                       patience=self.config.patience)
 
     def _on_start(self, fut: cf.Future) -> None:
         """A worker took this simulation: log its start ("simulation k of N …")."""
@@ -376,6 +388,7 @@ class Campaign:
         self._add_batch(store, executor, batch, unit, source, model)
         if self._model is not None:
             self._answer(store, points, self._model)
+            self._check_settled()
 
     def _propose(self, points: list[PointRecord], batch: int, q: int,
                  pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None]:
@@ -517,6 +530,26 @@ class Campaign:
             return "no best point yet"
         v, pid, params = self._best
         return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)}), {noise_text(v, *self._best_noise)}"
+
+
+#: the answer has settled when, between successive batches, the recommendation moves less than this
+#: (unit cube, max norm) and the plausible region's share of the box changes by less than SETTLED_SHARE
+SETTLED_MOVE = 0.02
+SETTLED_SHARE = 0.02
+
+
+def settled(answers: list[Answer], space, patience: int) -> bool:
+    """Whether the last ``patience`` changes between successive answers were all below the
+    settling limits (False when ``patience`` is 0 or there are too few answers): the stopping rule
+    of ``budget.patience``. More simulations would move neither the recommendation nor the region."""
+    if patience <= 0 or len(answers) < patience + 1:
+        return False
+    for a, b in zip(answers[-patience - 1:-1], answers[-patience:]):
+        ua = space.to_unit(np.asarray([list(a.params.values())]))[0]
+        ub = space.to_unit(np.asarray([list(b.params.values())]))[0]
+        if np.max(np.abs(ua - ub)) >= SETTLED_MOVE or abs(a.region_share - b.region_share) >= SETTLED_SHARE:
+            return False
+    return True
 
 
 def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:

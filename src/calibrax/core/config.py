@@ -34,7 +34,7 @@ ROOT_KEYS = {
     "parameters": "{name: {low, high, log}} of the calibrated parameters",
     "metric": "a metric name or {name, options...}",
     "acquisition": "an acquisition name or {name, q, options...}",
-    "budget": "{initial, iterations}",
+    "budget": "{initial, iterations, patience}",
     "executor": "an executor name or {name, workers, timeout_s}",
     "store": "path of the campaign's HDF5 store",
     "workdir": "folder for the simulations' work folders (default: next to the store)",
@@ -86,6 +86,8 @@ class CampaignConfig:
     enqueue: tuple[tuple[float, ...], ...] = ()
     #: an earlier store whose finished simulations a new store starts with (None: none)
     warm_start: Path | None = None
+    #: stop early once the answer has settled for this many successive batches (0: never)
+    patience: int = 0
 
     @property
     def target_points(self) -> int:
@@ -380,9 +382,10 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
                                   f"next) or 'async' (a new point as soon as a worker frees up), got {batching!r}")
         acq_raw = {k: v for k, v in acq_raw.items() if k not in ("q", "batching")}
     acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="qei")
-    budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations"})
+    budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations", "patience"})
     initial = _integer("budget.initial", budget.get("initial", 4), 2)
     iterations = _integer("budget.iterations", budget.get("iterations", 8), 0)
+    patience = _integer("budget.patience", budget.get("patience", 0), 0)
     executor, exec_options = _named("executor", raw.get("executor"), "executor", default="local")
     if "workers" in exec_options and exec_options["workers"] < 1:
         raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {exec_options['workers']}")
@@ -425,7 +428,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         "parameters": {p.name: {"low": p.low, "high": p.high, "log": p.log} for p in space.parameters},
         "metric": {"name": metric, **metric_options},
         "acquisition": {"name": acquisition, "q": q, "batching": batching, **acq_options},
-        "budget": {"initial": initial, "iterations": iterations},
+        "budget": {"initial": initial, "iterations": iterations, **({"patience": patience} if patience else {})},
         "executor": {"name": executor, **exec_options}, "store": str(store), "workdir": str(workdir),
         "seed": seed, "seeds_per_point": seeds_per_point, "surrogate": surrogate,
         **({"enqueue": [list(row) for row in enqueue]} if enqueue else {}),
@@ -435,4 +438,4 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         check_warm_start(warm_start, resolved, space)
     return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
                           acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
-                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start)
+                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start, patience)
