@@ -406,7 +406,7 @@ class Campaign:
                        "proposing space-filling points", level=logging.WARNING, batch=batch)
             return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
         t0 = time.monotonic()
-        model = self._model = self.fit_model(points, seed=seed)
+        model = self._model = fit_distance_model(points, cfg.surrogate, seed, obs)
         unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
         hyper = model.hyperparameters()
         n_pen = len(obs.y) - finished
@@ -560,14 +560,16 @@ def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
     return (float(np.median(values)) if values else math.nan, float(np.median(rates)) if rates else math.nan)
 
 
-def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int):
+def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int,
+                       obs: Observations | None = None):
     """A :class:`~calibrax.core.surrogate.Kriging` model of the points' distances (penalised
     failures included) with the options ``surrogate`` ({transform, noise}); None with < 2 points.
     ``noise: metric`` takes the noise prior from the metric's threshold
-    (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free."""
+    (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
+    the points' :func:`observations`, when the caller has them already."""
     from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
 
-    obs = observations(points)
+    obs = observations(points) if obs is None else obs
     if len(obs.y) < 2:
         return None
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]

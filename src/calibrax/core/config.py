@@ -102,14 +102,7 @@ class CampaignConfig:
         keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
                                                                       "description", "name", "surrogate", "enqueue",
                                                                       "warm_start")}
-        keep = json.loads(json.dumps(keep))
-        for path, default in ADDED_FIELDS.items():
-            *parents, last = path
-            node = keep
-            for key in parents:
-                node = node.get(key, {}) if isinstance(node, dict) else {}
-            if isinstance(node, dict) and last in node and node[last] == default:
-                del node[last]
+        keep = _without_added_defaults(keep)
         return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -218,13 +211,23 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
     return name, options
 
 
+def _without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``resolved`` without the :data:`ADDED_FIELDS` that hold their defaults."""
+    out = json.loads(json.dumps(resolved))
+    for path, default in ADDED_FIELDS.items():
+        *parents, last = path
+        node = out
+        for key in parents:
+            node = node.get(key, {}) if isinstance(node, dict) else {}
+        if isinstance(node, dict) and last in node and node[last] == default:
+            del node[last]
+    return out
+
+
 def _comparable_cell(cell: dict[str, Any], names: tuple[str, ...]) -> dict[str, Any]:
     """A resolved cell without what differs between the points of one campaign: the calibrated
     material values and the seed."""
-    cell = json.loads(json.dumps(cell))
-    for path, default in ADDED_FIELDS.items():
-        if path[0] == "cell" and cell.get(path[1], {}).get(path[2], default) == default:
-            cell.get(path[1], {}).pop(path[2], None)
+    cell = _without_added_defaults({"cell": cell})["cell"]
     for name in names:
         cell.get("material", {}).pop(name, None)
     cell.get("numerics", {}).pop("seed", None)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -59,6 +59,8 @@ class Kriging:
     train_y: torch.Tensor  # shape (n, 1): −transform(distance)
     transform: str = "identity"
     noise_floor: float = 0.0  # standardised units; 0: none
+    #: Cholesky factor and α of the training system, filled by :meth:`_solved` on first use
+    _cache: tuple | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def fit(cls, x: np.ndarray, distance: np.ndarray, seed: int = 0, *, transform: str = "identity",
@@ -117,7 +119,7 @@ class Kriging:
     def _solved(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Cholesky factor of K + σ²I over the training points and α = (K + σ²I)⁻¹ (y − m), in
         the model's standardised units (cached)."""
-        if getattr(self, "_cache", None) is None:
+        if self._cache is None:
             m = self.model
             x_train = m.train_inputs[0]
             k = m.covar_module(x_train).to_dense()
