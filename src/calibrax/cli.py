@@ -22,6 +22,7 @@ examples:
   calibrax status runs/quickstart.h5               points, results and the answer so far
   calibrax export runs/quickstart.h5               trials as CSV (runs/quickstart-trials.csv)
   calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
+  calibrax diagnose runs/quickstart.h5             where the sim-to-real gap lies and which effect causes it
   calibrax plugins                                 registered simulators, metrics, acquisitions…
 """
 
@@ -100,6 +101,33 @@ def _parser() -> argparse.ArgumentParser:
     conv.add_argument("--backend", help="simulator (default: the campaign's)")
     conv.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.converge/)")
     conv.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
+
+    diag = sub.add_parser("diagnose", help="diagnose the sim-to-real gap of a calibrated campaign",
+                          description="Where the gap between the calibrated model and the experiment lies (each "
+                                      "feature's standardised residual, |z| > 3 implausible), which unmodelled "
+                                      "effect causes it (each candidate fitted jointly with the calibrated parameters "
+                                      "on a DEM design around the campaign's answer and scored by its Bayes factor "
+                                      "against 'no effect'; the answer can also be 'no effect' or 'none of the "
+                                      "candidates'), and how far the gap shrinks once the top effect is added "
+                                      "(recalibrated on one feature group, judged on the other with fresh seeds). "
+                                      "Writes DIR/diagnosis.md, diagnosis.json, figures and the simulations' stores "
+                                      "(design.h5, confirm.h5): run it again to resume. The campaign report "
+                                      "includes it. README, 'Diagnosing the sim-to-real gap'.")
+    diag.add_argument("store", type=Path, help="the calibrated campaign's HDF5 store (it must have an answer)")
+    diag.add_argument("--effects", metavar="LIST",
+                      help="comma-separated candidate effects (default: every registered one the backend can "
+                           "model; builtin: wall_friction, size_distribution, cohesion)")
+    diag.add_argument("--backend", help="the diagnosing simulator (default: the campaign's)")
+    diag.add_argument("--budget", type=int, metavar="N",
+                      help="simulations in all (default 4 replicates + 4 baseline + 8 per effect + 4 to confirm: "
+                           "36 for three effects)")
+    diag.add_argument("--fit-on", default="locus,density", metavar="GROUPS",
+                      help="feature groups the recalibration is fitted to; the others judge it. Groups: locus (peak "
+                           "τ/σ per step), density (bulk density at the preshear stress), flow (preshear and post-peak "
+                           "τ/σ), shape (initial slope and peak prominence of the τ curves). Default: locus,density")
+    diag.add_argument("--seed", type=int, default=0, help="the design's seed (default 0)")
+    diag.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.diagnosis/)")
+    diag.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
 
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
                             description="Write index.html, summary.md and PNG/SVG figures into one folder (the page shows the "
@@ -329,6 +357,13 @@ def _cmd_converge(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from calibrax.diagnosis.command import run_diagnose
+
+    return run_diagnose(args.store, effects=args.effects, backend=args.backend, budget=args.budget,
+                        fit_on=args.fit_on, seed=args.seed, output=args.output, workers=args.workers)
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from calibrax.plugins.manager import HOOKS, get_manager
 
@@ -371,7 +406,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _raise_interrupt)
     handlers = {"run": _cmd_run, "status": _cmd_status, "export": _cmd_export, "report": _cmd_report,
                 "crosscheck": _cmd_crosscheck,
-                "converge": _cmd_converge, "plugins": _cmd_plugins}
+                "converge": _cmd_converge, "diagnose": _cmd_diagnose, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)
     except CalibraxError as exc:

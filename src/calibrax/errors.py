@@ -87,3 +87,8 @@ class EngineNotFound(CalibraxError):
     """A backend's engine binary is not installed; the message says how to install it."""
 
     exit_code = 2
+
+
+class DiagnosisError(CalibraxError):
+    """A diagnosis cannot go on: its campaign has no answer yet, or too few of its simulations
+    finished to fit the candidates."""

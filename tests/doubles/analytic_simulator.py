@@ -6,11 +6,16 @@ Its yield locus is a known function of (E, μs):
 
     AIF = atan(0.25 + 0.7 μs),   C = 300 Pa + 400 Pa · (log10(E / Pa) − 10) + 200 Pa · μs
 
-and each shear step's τ curve rises to its peak at 0.05 rad and softens after it.
+and each shear step's τ curve rises to its peak at 0.05 rad and softens after it. The diagnosis's
+effects act on it in known ways: lateral wall friction w multiplies every τ by (1 + 0.8 w) and the
+bulk density by (1 − 0.1 w); cohesion k adds k/10⁴ Pa to C (k in J/m³); a size distribution of
+width s multiplies the bulk density by (1 + 0.15 s).
 Environment knobs for fault and scheduling tests:
 
 * ``CALIBRAX_DOUBLE_SLEEP``: seconds per simulation, or ``A-B`` for a duration drawn uniformly in
   [A, B] from the simulation's seed (uneven durations);
+* ``CALIBRAX_DOUBLE_NOISE``: relative s.d. of seed noise on each peak and preshear (a fifth of it on
+  the bulk density), drawn from the simulation's seed (default 0: deterministic);
 * ``CALIBRAX_DOUBLE_FAULT=KIND:MU``: above μs = MU, ``fail`` (raise SimulationFailed), ``crash``
   (the process aborts), ``hang`` (sleeps for an hour) or ``nan`` (returns NaN peaks).
 
@@ -77,7 +82,12 @@ class AnalyticDoubleSimulator:
         c, aif = true_locus(m.youngs_modulus, m.sliding_friction)
         if faulty and fault == "nan":
             c = float("nan")
+        c += m.cohesion_energy_density / 1e4
         slope = math.tan(math.radians(aif))
+        wall = 1.0 + 0.8 * spec.geometry.wall_friction
+        packing = (1.0 - 0.1 * spec.geometry.wall_friction) * (1.0 + 0.15 * spec.size_distribution.sigma_log)
+        noise = float(os.environ.get("CALIBRAX_DOUBLE_NOISE", "0"))
+        rng = np.random.default_rng(spec.numerics.seed)
         p = spec.procedure
         steps, density = [], []
         t = 0.0
@@ -85,13 +95,13 @@ class AnalyticDoubleSimulator:
             for kind, target, span in (("preshear", p.preshear_stress, p.preshear_rotation),
                                        ("shear", sigma, p.shear_rotation)):
                 rot = np.linspace(0.0, span, 201)
-                peak = c + target * slope
+                peak = (c + target * slope) * wall * (1.0 + noise * rng.standard_normal())
                 tau = curve(rot, peak) if kind == "shear" else np.full(rot.size, peak)
                 times = t + rot / p.rotation_rate
                 t = float(times[-1])
                 steps.append(StepRecord(kind, target, times, rot, tau, np.full(rot.size, target),
                                         np.full(rot.size, spec.geometry.fill_height)))
-            density.append(0.6 * m.density)
+            density.append(0.6 * m.density * packing * (1.0 + noise / 5 * rng.standard_normal()))
         prov = Provenance(self.name, self.version(), spec.spec_hash(), spec.numerics.seed,
                           time.perf_counter() - t0, spec.particle_count)
         result = ShearTestResult.from_steps(spec, steps, density, prov)

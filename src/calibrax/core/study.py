@@ -16,6 +16,7 @@ import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -171,8 +172,11 @@ def study_hash(cases: list[StudyCase]) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
-def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path, kind: str) -> list[CaseOutcome]:
-    """Run every case's seeds through ``executor`` (resuming from ``store_path``), return the outcomes."""
+def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path, kind: str,
+              progress: Callable[[int, int], None] | None = None) -> list[CaseOutcome]:
+    """Run every case's seeds through ``executor`` (resuming from ``store_path``), return the outcomes.
+    ``progress(finished, total)`` is called once at the start and after every simulation (finished
+    counts those of earlier runs too)."""
     from calibrax import __version__
 
     with CampaignStore(store_path).acquire(study_hash(cases)) as store:
@@ -197,12 +201,19 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
                     spec = c.spec.replace(numerics={"seed": s.seed})
                     task = SimulationTask(p.id, c.backend, spec, workdir / f"{kind}-{p.id:04d}-s{s.index}")
                     futures[executor.submit(task)] = (i, p.id, s.index)
+        total = sum(len(c.seeds) for c in cases)
+        finished = total - len(futures)
+        if progress:
+            progress(finished, total)
         try:
             remaining = set(futures)
             while remaining:
                 for fut in starts.wait(remaining):
                     remaining.discard(fut)
                     _record(store, kind, cases, futures[fut], fut, starts.attempt_time(fut))
+                    finished += 1
+                    if progress:
+                        progress(finished, total)
         except BaseException:
             executor.shutdown(cancel=True)
             raise

@@ -28,7 +28,7 @@ HOOKS = {
     "effect": "calibrax_effects",
 }
 BUILTIN_MODULES = ("calibrax.plugins.builtin.metrics", "calibrax.plugins.builtin.acquisitions",
-                   "calibrax.plugins.builtin.executors")
+                   "calibrax.plugins.builtin.executors", "calibrax.diagnosis.effects")
 
 
 class PluginWarning(UserWarning):

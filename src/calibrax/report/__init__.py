@@ -34,10 +34,27 @@ def build_report(store: str | Path, out_dir: str | Path | None = None) -> Path:
     files["shear_curves"] = figures.shear_curves(data, out)
     files["surrogate"], statement = figures.surrogate_maps(data, out)
     files["convergence"] = figures.convergence(data, out)
-    (out / "summary.md").write_text(_markdown(data, statement), encoding="utf-8")
+    diagnosis = _diagnosis(data.store, out)
+    (out / "summary.md").write_text(_markdown(data, statement) + (f"\n{diagnosis}" if diagnosis else ""),
+                                    encoding="utf-8")
     page = out / "index.html"
-    page.write_text(_html(data, files, statement), encoding="utf-8")
+    page.write_text(_html(data, files, statement, diagnosis), encoding="utf-8")
     return page
+
+
+def _diagnosis(store: Path, out: Path) -> str:
+    """The store's diagnosis (``calibrax diagnose`` into STORE.diagnosis/), its figures copied into
+    the report's folder; "" when there is none."""
+    import shutil
+
+    folder = Path(store).with_suffix(".diagnosis")
+    summary = folder / "diagnosis.md"
+    if not summary.is_file():
+        return ""
+    for figure in folder.glob("diagnosis_*.*"):
+        if figure.suffix in (".png", ".svg"):
+            shutil.copy(figure, out / figure.name)
+    return summary.read_text(encoding="utf-8")
 
 
 def _best_line(data: CampaignData) -> str:
@@ -84,7 +101,7 @@ def _markdown(data: CampaignData, statement: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _html(data: CampaignData, files: dict[str, list[str]], statement: str) -> str:
+def _html(data: CampaignData, files: dict[str, list[str]], statement: str, diagnosis: str = "") -> str:
     e = html.escape
     cfg = data.config
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>calibrax: {e(cfg['name'])}</title>",
@@ -115,7 +132,45 @@ def _html(data: CampaignData, files: dict[str, list[str]], statement: str) -> st
         for p, i, kind, reason, tail in data.failures:
             parts.append(f"<details><summary>point {p.id} sim {i} [{e(kind)}]: {e(reason)}</summary>"
                          f"<pre>{e(tail or '(no log)')}</pre></details>")
+    if diagnosis:
+        parts.append(_markdown_html(diagnosis))
     if data.experiment is not None:
         parts.append(f"<h2>Experiment</h2><p>{e(data.experiment.name)}</p><pre>{e(data.experiment.source)}</pre>")
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _markdown_html(text: str) -> str:
+    """The little Markdown a diagnosis summary uses (headings, tables, images, bold, paragraphs) as HTML."""
+    import re
+
+    e = html.escape
+    out, table = [], []
+
+    def inline(s: str) -> str:
+        return re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", e(s))
+
+    def flush() -> None:
+        if table:
+            rows = [r for r in table if not set(r.replace("|", "").strip()) <= {"-", ""}]
+            out.append("<table>" + "".join("<tr>" + "".join(f"<td>{inline(c.strip())}</td>" for c in r.strip("|").split("|"))
+                                           + "</tr>" for r in rows) + "</table>")
+            table.clear()
+
+    for line in text.splitlines():
+        if line.startswith("|"):
+            table.append(line)
+            continue
+        flush()
+        image = re.match(r"!\[(.*?)\]\((.*?)\)", line)
+        if line.startswith("#"):
+            level = min(len(line) - len(line.lstrip("#")) + 1, 4)
+            out.append(f"<h{level}>{inline(line.lstrip('#').strip())}</h{level}>")
+        elif image:
+            out.append(f"<figure><img src='{e(image.group(2))}' alt='{e(image.group(1))}'></figure>")
+        elif line.startswith("*") and line.endswith("*") and not line.startswith("**"):
+            out.append(f"<p><i>{e(line.strip('*'))}</i></p>")
+        elif line.strip():
+            out.append(f"<p>{inline(line)}</p>")
+    flush()
+    return "\n".join(out)

@@ -1,0 +1,114 @@
+"""Pseudo-experiments: a backend run at known parameters with several seeds (the "replicates"),
+written in the experiment format (header YAML, points CSV, curves CSV) with everything an FT4 user
+can measure besides the peaks: σ at each peak, the preshears' steady σ and τ, the bulk density at
+the preshear stress, and every shear step's τ curve.
+
+Made data is never presented as measured: the header and both CSVs begin with a provenance block
+naming the backend, its version, the cell, the spec hash, the material and the effects switched
+on. Replicate seeds lie at or above :data:`calibrax.core.campaign.EXPERIMENT_SEED_BASE`, where no
+campaign's simulation seed lies.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import yaml
+
+from calibrax.core.campaign import EXPERIMENT_SEED_BASE
+from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.errors import ConfigError
+
+
+def effects_text(spec: ShearCellSpec) -> str:
+    """The effects a spec switches on, in words (for the provenance block)."""
+    g, sd = spec.geometry, spec.size_distribution
+    return (f"lateral wall friction = {g.wall_friction:g}; size distribution = {sd.kind}"
+            + (f" (σ of ln r = {sd.sigma_log:g})" if sd.kind == "lognormal" else "")
+            + f"; cohesion energy density = {spec.material.cohesion_energy_density:g} J/m³")
+
+
+def _simulate(simulator_name: str, spec: ShearCellSpec) -> ShearTestResult:
+    from calibrax import get_manager
+
+    with tempfile.TemporaryDirectory() as work:
+        return get_manager().create("simulator", simulator_name).simulate(spec, Path(work))
+
+
+def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path, replicates: int = 3,
+                            first_seed: int = EXPERIMENT_SEED_BASE + 1000, cell_words: str = "",
+                            on_result: Callable[[int, ShearTestResult], None] | None = None,
+                            workers: int = 1) -> Path:
+    """Run ``replicates`` seeds of ``spec`` on the backend and write ``out``.yaml and its CSVs.
+
+    Args:
+        spec: the truth (its ``numerics.seed`` is replaced by each replicate's).
+        simulator_name: a registered simulator.
+        out: path and stem of the files (``.yaml``/``.csv`` suffixes are dropped).
+        replicates: seeds to run.
+        first_seed: the first replicate's seed, ≥ EXPERIMENT_SEED_BASE.
+        cell_words: how the cell was set up (preset, procedure), for the provenance.
+        on_result: called with (replicate index, result) after each run (progress).
+        workers: replicates run at once (separate processes).
+
+    Returns:
+        the header YAML's path.
+    """
+    from calibrax import get_manager
+
+    if first_seed < EXPERIMENT_SEED_BASE:
+        raise ConfigError("seed", f"must be ≥ {EXPERIMENT_SEED_BASE}: below it a campaign's simulation could "
+                                  "re-run a replicate")
+    simulator = get_manager().create("simulator", simulator_name)
+    seeds = [first_seed + r for r in range(replicates)]
+    specs = [spec.replace(numerics={"seed": seed}) for seed in seeds]
+    if workers > 1:
+        import concurrent.futures as cf
+        import multiprocessing
+
+        with cf.ProcessPoolExecutor(min(workers, replicates), mp_context=multiprocessing.get_context("spawn")) as pool:
+            results = list(pool.map(_simulate, [simulator_name] * replicates, specs))
+    else:
+        results = [_simulate(simulator_name, s) for s in specs]
+    points, curves = [], []
+    for r, result in enumerate(results):
+        if on_result:
+            on_result(r, result)
+        shear = [s for s in result.steps if s.kind == "shear"]
+        for k, step in enumerate(shear):
+            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k]:.6g},{r + 1},"
+                          f"{result.peak_normal_stress[k]:.6g},{result.preshear_normal_stress[k]:.6g},"
+                          f"{result.preshear_shear_stress[k]:.6g},{result.bulk_density[0]:.6g}")
+            for rot, tau in zip(step.rotation, step.shear_stress):
+                curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau:.6g}")
+    g = spec.geometry
+    base = f"{g.base_ribs} ribs {g.rib_height * 1e3:.2g} mm high" if g.base_ribs else "flat"
+    provenance = [
+        "PSEUDO-EXPERIMENT, NOT MEASURED DATA.",
+        f"Made by {simulator_name} ({simulator.version()}) with {cell_words or 'the ' + spec.name + ' cell'} "
+        f"(base: {base}), spec hash {spec.spec_hash()} (seed 0 variant).",
+        "Material: " + ", ".join(f"{k} = {v:g}" for k, v in sorted(vars(spec.material).items())),
+        f"Effects: {effects_text(spec)}.",
+        f"Replicates are seeds {seeds} of the same spec.",
+    ]
+    out = Path(out)
+    out = out.with_suffix("") if out.suffix in (".yaml", ".csv") else out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    comment = "".join(f"# {line}\n" for line in provenance)
+    points_path = out.parent / f"{out.name}-points.csv"
+    curves_path = out.parent / f"{out.name}-curves.csv"
+    points_path.write_text(comment + "normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,"
+                           "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3\n"
+                           + "\n".join(points) + "\n")
+    curves_path.write_text(comment + "replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n" + "\n".join(curves) + "\n")
+    header = {"name": out.name, "source": " ".join(provenance), "points": points_path.name,
+              "curves": curves_path.name, "preshear_stress_pa": float(spec.procedure.preshear_stress),
+              "cell": {"preset": spec.name, "base_ribs": g.base_ribs, "rib_height": g.rib_height,
+                       "wall_friction": g.wall_friction},
+              "material": {k: float(v) for k, v in sorted(vars(spec.material).items())}}
+    path = out.parent / f"{out.name}.yaml"
+    path.write_text(comment + yaml.safe_dump(header, sort_keys=False, allow_unicode=True))
+    return path

@@ -1,0 +1,40 @@
+"""``calibrax diagnose``: where the sim-to-real gap lies, which unmodelled effect causes it, and how
+far it shrinks once that effect is added (DESIGN §6).
+
+It reaches simulators only through the Simulator protocol and ``capabilities()``, and runs its
+simulations through the study machinery, so it resumes and scales like a campaign. The library
+API::
+
+    from calibrax.diagnosis import Calibrated, diagnose, effects_by_name
+    calibrated = Calibrated.from_store("runs/campaign.h5")
+    result = diagnose(calibrated, effects_by_name(["wall_friction", "cohesion"]), "runs/campaign.diagnosis",
+                      executor)
+    print(result.verdict, result.shrinkage)
+"""
+
+from __future__ import annotations
+
+from calibrax.diagnosis.design import Budget
+from calibrax.diagnosis.effects import Effect, EffectParameter, TruncatedNormalPrior, UniformPrior
+from calibrax.diagnosis.run import Calibrated, Diagnosis, diagnose
+
+__all__ = ["Budget", "Calibrated", "Diagnosis", "Effect", "EffectParameter", "TruncatedNormalPrior", "UniformPrior",
+           "diagnose", "effects_by_name"]
+
+
+def effects_by_name(names: list[str] | None = None) -> list[Effect]:
+    """The registered effects of these names (all of them for None), each built with no arguments;
+    an unknown name is a ConfigError naming ``--effects`` and listing the known ones."""
+    from calibrax.errors import ConfigError
+    from calibrax.plugins.manager import get_manager
+
+    known = get_manager().plugins("effect")
+    if names is None:
+        return [info.cls() for _, info in sorted(known.items(), key=lambda kv: _ORDER.get(kv[0], 99))]
+    bad = [n for n in names if n not in known]
+    if bad or not names or len(set(names)) != len(names):
+        raise ConfigError("--effects", f"unknown or repeated effect(s) {bad or names}; known: {sorted(known)}")
+    return [known[n].cls() for n in names]
+
+
+_ORDER = {"wall_friction": 0, "size_distribution": 1, "cohesion": 2}

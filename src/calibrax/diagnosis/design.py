@@ -1,0 +1,131 @@
+"""The DEM design a diagnosis runs: replicate seeds at the calibrated point, a few points around it
+without any effect, and for each candidate a space-filling set over the calibrated parameters and
+the effect's range.
+
+The box around the calibrated point is where the joint fit may move the calibrated parameters:
+an effect that adds strength is compensated by a lower μs, so the box must reach past the
+campaign's plausible region. Each calibrated parameter spans its plausible interval, widened to at
+least ``MIN_HALF_WIDTH`` of its range on either side of the recommendation, within its bounds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import qmc
+
+from calibrax.core.parameters import ParameterSpace
+from calibrax.diagnosis.effects import Effect
+
+#: the box's least half-width around the recommendation, as a fraction of each parameter's range
+MIN_HALF_WIDTH = 0.15
+#: seeds of diagnosis simulations start here: above any campaign's point-indexed seeds in practice,
+#: below calibrax.core.campaign.EXPERIMENT_SEED_BASE as every simulation seed is
+SEED_BASE = 700_000_000
+
+
+@dataclass(frozen=True)
+class Budget:
+    """How a diagnosis spends its simulations.
+
+    Attributes:
+        replicates: seeds at the calibrated point (the "before" of the gap).
+        baseline: further points without any effect, spread over the box.
+        per_effect: points per candidate effect.
+        confirm: seeds at the recalibrated point with the top effect (the "after").
+    """
+
+    replicates: int = 4
+    baseline: int = 4
+    per_effect: int = 8
+    confirm: int = 4
+
+    def total(self, n_effects: int) -> int:
+        return self.replicates + self.baseline + n_effects * self.per_effect + self.confirm
+
+    @classmethod
+    def for_total(cls, total: int, n_effects: int) -> "Budget":
+        """The split of ``total`` simulations: 4 replicates and 4 confirmations (fewer below 24
+        simulations), 4 baseline points, the rest shared evenly by the candidates."""
+        small = total < 24
+        replicates = confirm = 3 if small else 4
+        baseline = 3 if small else 4
+        per_effect = (total - replicates - confirm - baseline) // max(n_effects, 1)
+        return cls(replicates, baseline, per_effect, confirm)
+
+
+@dataclass(frozen=True)
+class Box:
+    """The calibrated parameters' design box, natural units: ``low``, ``high``, ``centre`` (the
+    recommendation), shape (d,) each; ``space`` maps them to and from the campaign's unit cube."""
+
+    space: ParameterSpace
+    centre: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+
+    @classmethod
+    def around(cls, space: ParameterSpace, centre: dict[str, float],
+               plausible: dict[str, tuple[float, float]] | None = None) -> "Box":
+        """The box around a recommendation (see the module docstring)."""
+        c = space.to_unit(np.array([[centre[n] for n in space.names]]))[0]
+        lo, hi = c - MIN_HALF_WIDTH, c + MIN_HALF_WIDTH
+        for i, n in enumerate(space.names):
+            if plausible and n in plausible:
+                p = space.to_unit(np.array([[plausible[m][0] if m == n else centre[m] for m in space.names],
+                                            [plausible[m][1] if m == n else centre[m] for m in space.names]]))
+                lo[i], hi[i] = min(lo[i], p[0, i]), max(hi[i], p[1, i])
+        lo, hi = np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
+        nat = space.from_unit(np.vstack([lo, hi]))
+        return cls(space, np.array([centre[n] for n in space.names], dtype=float), nat[0], nat[1])
+
+    def _cube(self, natural: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u = self.space.to_unit(np.atleast_2d(natural))
+        lo, hi = self.space.to_unit(self.low[None])[0], self.space.to_unit(self.high[None])[0]
+        return u, (lo, hi)
+
+    def scaled(self, natural: np.ndarray) -> np.ndarray:
+        """Natural values, shape (n, d), to [−1, 1] over the box (log where the space is)."""
+        u, (lo, hi) = self._cube(natural)
+        return 2.0 * (u - lo) / np.where(hi > lo, hi - lo, 1.0) - 1.0
+
+    def natural(self, scaled: np.ndarray) -> np.ndarray:
+        """[−1, 1] over the box, shape (n, d), to natural values."""
+        _, (lo, hi) = self._cube(self.centre)
+        u = lo + (np.atleast_2d(scaled) + 1.0) / 2.0 * (hi - lo)
+        return self.space.from_unit(u)
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """One design point: a label, the calibrated parameters and the effect parameters (natural
+    units; effect parameters absent are off) and the seeds it runs."""
+
+    label: str
+    params: dict[str, float]
+    effect: str | None
+    effect_values: dict[str, float]
+    seeds: tuple[int, ...]
+
+
+def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0) -> list[DesignPoint]:
+    """The diagnosis's design (see the module docstring); every simulation has its own seed."""
+    names = box.space.names
+    seeds = iter(range(SEED_BASE + 1000 * seed, SEED_BASE + 1000 * seed + 1000))
+    points = [DesignPoint("calibrated", dict(zip(names, map(float, box.centre))), None, {},
+                          tuple(next(seeds) for _ in range(budget.replicates)))]
+    d = len(names)
+    if budget.baseline:
+        u = qmc.Sobol(d, scramble=True, seed=seed).random(max(budget.baseline, 1))[:budget.baseline]
+        for k, row in enumerate(box.natural(2.0 * u - 1.0)):
+            points.append(DesignPoint(f"baseline {k + 1}", dict(zip(names, map(float, row))), None, {}, (next(seeds),)))
+    for j, effect in enumerate(effects):
+        k_eff = len(effect.parameters)
+        u = qmc.Sobol(d + k_eff, scramble=True, seed=seed + 1 + j).random(budget.per_effect)
+        cal = box.natural(2.0 * u[:, :d] - 1.0)
+        for k in range(budget.per_effect):
+            values = {p.name: float(p.off + u[k, d + i] * (p.high - p.off)) for i, p in enumerate(effect.parameters)}
+            points.append(DesignPoint(f"{effect.name} {k + 1}", dict(zip(names, map(float, cal[k]))), effect.name,
+                                      values, (next(seeds),)))
+    return points

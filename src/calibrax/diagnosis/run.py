@@ -1,0 +1,339 @@
+"""Running a diagnosis: the DEM design, the scoring, the recalibration and its confirmation.
+
+1. **Where the gap lies.** Replicate seeds at the calibrated point against the experiment, feature
+   by feature (:mod:`calibrax.diagnosis.gap`).
+2. **Which effect.** The design's simulations, every candidate fitted jointly with the calibrated
+   parameters and scored by its Bayes factor against "no effect"
+   (:mod:`calibrax.diagnosis.scoring`), on every feature.
+3. **How far it shrinks.** The top candidate is fitted again on some feature groups only
+   (``fit_on``: the yield locus and the bulk density by default), the recalibrated point
+   (calibrated parameters and the effect's magnitude) is simulated with fresh seeds, and the gap
+   before and after is compared on the *other* groups (the τ curves' flow and shape by default),
+   which played no part in that fit.
+
+Simulations run through the study machinery into ``out/design.h5`` and ``out/confirm.h5`` (the
+confirmation's point depends only on the design's results), so a killed diagnosis resumes without
+repeating a finished simulation; the outcome is written to ``out/diagnosis.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibrax.core.campaign import point_spec
+from calibrax.core.experiment import Experiment
+from calibrax.core.parameters import ParameterSpace
+from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.study import StudyCase, run_study
+from calibrax.diagnosis import gap as gaps
+from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points
+from calibrax.diagnosis.effects import Effect, EffectParameter
+from calibrax.diagnosis.scoring import (NO_EFFECT, NONE_OF_THEM, CandidateSpace, Design, Emulator, Ranking,
+                                        Target, rank, score_model)
+from calibrax.errors import ConfigError, DiagnosisError
+
+log = logging.getLogger("calibrax")
+
+
+@dataclass(frozen=True)
+class Calibrated:
+    """What a diagnosis starts from: a calibrated model and the experiment it was calibrated on.
+
+    Attributes:
+        simulator: the campaign's backend.
+        spec: its base spec (calibrated values are set per point).
+        space: the calibrated parameters.
+        experiment: the measured (or pseudo-) experiment.
+        centre: the campaign's recommendation, natural units.
+        plausible: {name: (low, high)} of its plausible region (empty: none known).
+    """
+
+    simulator: str
+    spec: ShearCellSpec
+    space: ParameterSpace
+    experiment: Experiment
+    centre: dict[str, float]
+    plausible: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @classmethod
+    def from_store(cls, path: Path) -> "Calibrated":
+        """The campaign of a store: its config, experiment and answer (the recommendation)."""
+        from calibrax.core.campaign import load_answer
+        from calibrax.core.store import CampaignStore
+
+        path = Path(path)
+        if not path.is_file():
+            raise ConfigError("STORE", f"{path}: no such campaign store (give the .h5 that `calibrax run` wrote)")
+        store = CampaignStore(path)
+        cfg = store.config()
+        experiment = store.experiment()
+        answer = load_answer(store)
+        if experiment is None or answer is None:
+            raise DiagnosisError(f"{path}: the campaign has {'no experiment' if experiment is None else 'no answer yet'}; "
+                                 "run it (calibrax run) until it reports an answer, then diagnose it")
+        space = ParameterSpace.from_config(cfg["parameters"])
+        plausible = {k: tuple(v) for k, v in answer.ranges.items()}
+        return cls(cfg["simulator"], ShearCellSpec.from_dict(cfg["cell"]), space, experiment, dict(answer.params),
+                   plausible)
+
+
+@dataclass
+class Diagnosis:
+    """The outcome (all of it JSON-ready through :meth:`to_dict`)."""
+
+    backend: str
+    effects: list[str]
+    skipped: dict[str, str]
+    fit_on: list[str]
+    judge_on: list[str]
+    features: list[str]
+    before: list[gaps.FeatureGap]
+    ranking: Ranking
+    recalibrated: dict[str, Any]
+    after: list[gaps.FeatureGap]
+    simulations: dict[str, int]
+    wall_time: float
+    box: dict[str, tuple[float, float]]
+    centre: dict[str, float]
+
+    @property
+    def verdict(self) -> str:
+        return self.ranking.verdict
+
+    def held_out(self, which: str) -> list[gaps.FeatureGap]:
+        rows = self.before if which == "before" else self.after
+        return [g for g in rows if g.name in self.judge_on]
+
+    @property
+    def shrinkage(self) -> float:
+        """1 − (held-out gap after)/(before), the gap as the RMS of the held-out features' z."""
+        b, a = gaps.gap_size(self.held_out("before")), gaps.gap_size(self.held_out("after"))
+        return 1.0 - a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        def gap_rows(rows: list[gaps.FeatureGap]) -> list[dict[str, Any]]:
+            return [dict(asdict(g), z=g.z, stderr=g.stderr, implausible=g.implausible) for g in rows]
+
+        models = [{"name": m.name, "label": m.label, "probability": m.probability, "log_evidence": m.log_evidence,
+                   "best_effect": m.best_effect, "effect_mean": m.effect_mean,
+                   "effect_interval": {k: list(v) for k, v in m.effect_interval.items()},
+                   "max_abs_z": m.max_abs_z, "z": dict(zip(self.ranking.names, map(float, m.z))),
+                   "prior": list(m.prior_text)} for m in self.ranking.models]
+        return {"backend": self.backend, "effects": self.effects, "skipped": self.skipped, "fit_on": self.fit_on,
+                "judge_on": self.judge_on, "features": self.features, "verdict": self.verdict,
+                "reason": self.ranking.reason, "models": models, "before": gap_rows(self.before),
+                "after": gap_rows(self.after), "recalibrated": self.recalibrated,
+                "gap_before": gaps.gap_size(self.held_out("before")), "gap_after": gaps.gap_size(self.held_out("after")),
+                "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
+                "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre}
+
+
+def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
+    """Each effect's parameters and priors, for the scoring."""
+    out = []
+    for e in effects:
+        priors = e.prior(experiment)
+        out.append(CandidateSpace(e.name, e.label, tuple(p.name for p in e.parameters), tuple(p.off for p in e.parameters),
+                                  tuple(p.high for p in e.parameters), tuple(priors[p.name] for p in e.parameters),
+                                  tuple(f"{p.name}: {priors[p.name].describe()}" for p in e.parameters)))
+    return out
+
+
+def usable_effects(effects: list[Effect], capabilities: frozenset[str], backend: str,
+                   asked: bool) -> tuple[list[Effect], dict[str, str]]:
+    """The effects the backend can model; one it cannot is an error when the user named it, and is
+    skipped (with the reason) when it came from the default list."""
+    keep, skipped = [], {}
+    for e in effects:
+        if e.capability in capabilities:
+            keep.append(e)
+        elif asked:
+            raise ConfigError("--effects", f"{backend} cannot model {e.name} (needs {e.capability!r}); "
+                              f"it models {sorted(capabilities)}; choose another --backend or drop it")
+        else:
+            skipped[e.name] = f"{backend} cannot model it (needs {e.capability!r})"
+    if not keep:
+        raise ConfigError("--effects", f"{backend} can model none of the candidate effects")
+    return keep, skipped
+
+
+def _case(calibrated: Calibrated, backend: str, point: DesignPoint, effects: dict[str, Effect]) -> StudyCase:
+    spec = point_spec(calibrated.spec, point.params, 0)
+    if point.effect is not None:
+        spec = effects[point.effect].apply(spec, point.effect_values)
+    coords = dict(point.params, **point.effect_values)
+    return StudyCase(point.label, backend, spec.validate(), point.seeds, coords)
+
+
+def _progress(stage: str):
+    started = time.monotonic()
+
+    def report(done: int, total: int) -> None:
+        elapsed = time.monotonic() - started
+        log.info("diagnose %s: %d of %d simulations done, %d to go (%.0f s)", stage, done, total, total - done, elapsed)
+    return report
+
+
+def _design_arrays(points: list[DesignPoint], outcomes, box: Box, params: dict[str, EffectParameter],
+                   peak_window: float) -> tuple[np.ndarray, np.ndarray, list[dict[str, float]], list[int]]:
+    """Per finished simulation: the calibrated parameters on [−1, 1] over the box, shape (n, d), every
+    effect parameter as a fraction of its range (0: off), shape (n, K) in the order of ``params``,
+    its features, and the index of its design point."""
+    columns = list(params)
+    unit, eff, feats, which = [], [], [], []
+    for i, (pt, out) in enumerate(zip(points, outcomes)):
+        scaled = box.scaled(np.array([[pt.params[n] for n in box.space.names]]))[0]
+        fractions = [float(params[c].scaled(pt.effect_values[c])) if c in pt.effect_values else 0.0 for c in columns]
+        for f in gaps.simulated(out.good, peak_window):
+            unit.append(scaled)
+            eff.append(fractions)
+            feats.append(f)
+            which.append(i)
+    return (np.array(unit).reshape(len(unit), box.space.dim), np.array(eff, dtype=float).reshape(len(unit), len(columns)),
+            feats, which)
+
+
+def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor, *, backend: str | None = None,
+             budget: Budget | None = None, fit_on: tuple[str, ...] | str = gaps.DEFAULT_FIT, seed: int = 0,
+             asked: bool = False,
+             capabilities: frozenset[str] | None = None, executor_factory=None) -> Diagnosis:
+    """Run (or resume) a diagnosis into ``out`` and return it (see the module docstring).
+
+    Args:
+        calibrated: the calibrated campaign.
+        effects: the candidate effects.
+        out: the folder of its stores, summary and figures.
+        executor: runs the design's simulations; ``executor_factory()`` makes a fresh one for the
+            confirmation (an executor is shut down after each study). None: the same is reused.
+        backend: the diagnosing simulator (default: the campaign's).
+        budget: how many simulations go where (default :class:`Budget`).
+        fit_on: the feature groups the recalibration is fitted to (:data:`~calibrax.diagnosis.gap.GROUPS`);
+            the others judge it.
+        asked: whether the user named the effects (an effect the backend cannot model is then an
+            error, not skipped).
+        capabilities: the backend's (default: asked of the backend).
+    """
+    from calibrax.plugins.manager import get_manager
+
+    fit_on = gaps.parse_groups(fit_on)
+    started = time.monotonic()
+    backend = backend or calibrated.simulator
+    if capabilities is None:
+        capabilities = frozenset(get_manager().create("simulator", backend).capabilities())
+    effects, skipped = usable_effects(effects, capabilities, backend, asked)
+    budget = budget or Budget()
+    effect_params = {p.name: p for e in effects for p in e.parameters}
+    names_seen = [p.name for e in effects for p in e.parameters]
+    if len(set(names_seen)) != len(names_seen):
+        raise ConfigError("--effects", f"two candidates add a parameter of the same name: {names_seen}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    box = Box.around(calibrated.space, calibrated.centre, calibrated.plausible)
+    points = design_points(box, effects, budget, seed)
+    by_name = {e.name: e for e in effects}
+    cases = [_case(calibrated, backend, p, by_name) for p in points]
+    log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
+             len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
+    outcomes = run_study(cases, out / "design.h5", executor, out / "runs", "diagnose", _progress("design"))
+    peak_window = calibrated.spec.procedure.peak_window
+    columns = tuple(names_seen)
+    unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
+    experiment = gaps.measured(calibrated.experiment, peak_window)
+    all_names = tuple(n for g in gaps.GROUPS.values() for n in g)
+    names = gaps.usable(all_names, experiment, feats)
+    if len(names) < 2:
+        raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
+                             f"({list(names)}); the diagnosis needs at least two")
+    rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
+    failed = sum(len(o.failures) for o in outcomes)
+    y = np.array([[feats[i][n] for n in names] for i in rows])
+    design = Design(unit[rows], eff[rows], columns, y, names)
+    target = _target(experiment, names)
+    spaces = candidate_spaces(effects, calibrated.experiment)
+    try:
+        ranking = rank(target, design, spaces, seed)
+    except ValueError as exc:
+        raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
+    emulator = Emulator.fit(design)
+    seed_sd = dict(zip(names, map(float, emulator.sd)))
+    centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
+    before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
+    judge = [n for n in names if gaps.group_of(n) not in fit_on]
+    recal: dict[str, Any] = {}
+    after: list[gaps.FeatureGap] = []
+    confirm_done = 0
+    top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
+    if ranking.verdict != NO_EFFECT and top is not None:
+        recal, after, confirm_done = _recalibrate(calibrated, backend, box, by_name[top.name], design, target,
+                                                  spaces, fit_on, budget, seed, out,
+                                                  executor_factory() if executor_factory else executor, experiment,
+                                                  seed_sd, names)
+    sims = {"design": int(sum(len(p.seeds) for p in points)), "design_failed": int(failed),
+            "confirm": int(confirm_done), "total": int(sum(len(p.seeds) for p in points) + confirm_done)}
+    result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), before, ranking, recal,
+                       after, sims, time.monotonic() - started,
+                       {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
+                       dict(calibrated.centre))
+    write_json(out / "diagnosis.json", result.to_dict())
+    return result
+
+
+def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Target:
+    v = np.array([[e[n] for n in names] for e in experiment])
+    sd = v.std(axis=0, ddof=1) if v.shape[0] > 1 else np.full(len(names), math.nan)
+    return Target(v.mean(axis=0), sd, v.shape[0])
+
+
+def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, design: Design, target: Target,
+                 spaces: list[CandidateSpace], fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor,
+                 experiment: list[dict[str, float]], seed_sd: dict[str, float], names: tuple[str, ...]):
+    """Fit the top effect on one feature group, simulate the fit, and compare on the other group."""
+    keep = [j for j, n in enumerate(design.names) if gaps.group_of(n) in fit_on]
+    if not keep:
+        raise DiagnosisError(f"none of the features is in the groups {list(fit_on)} the recalibration is fitted to "
+                             f"(features: {list(design.names)}); choose other --fit-on groups")
+    sub = Design(design.unit, design.effects, design.effect_columns, design.features[:, keep],
+                 tuple(design.names[j] for j in keep))
+    sub_target = Target(target.mean[keep], target.sd[keep], target.n)
+    space = next(s for s in spaces if s.name == effect.name)
+    fit = score_model(sub_target, Emulator.fit(sub), space, seed)
+    params = dict(zip(box.space.names, map(float, box.natural(fit.best_unit[None])[0])))
+    values = dict(fit.best_effect)
+    recal = {"effect": effect.name, "label": effect.label, "params": params, "effect_values": values,
+             "effect_mean": fit.effect_mean, "effect_interval": {k: list(v) for k, v in fit.effect_interval.items()},
+             "fitted_on": list(sub.names)}
+    log.info("diagnose: recalibrated with %s on %s: %s, %s", effect.label, "+".join(fit_on),
+             ", ".join(f"{k} = {v:.4g}" for k, v in params.items()),
+             ", ".join(f"{k} = {v:.4g} (95 % interval {fit.effect_interval[k][0]:.3g} to {fit.effect_interval[k][1]:.3g})"
+                       for k, v in values.items()))
+    point = DesignPoint("recalibrated", params, effect.name, values,
+                        tuple(SEED_BASE + 1000 * seed + 900 + i for i in range(budget.confirm)))
+    if budget.confirm < 1:
+        return recal, [], 0
+    outcomes = run_study([_case(calibrated, backend, point, {effect.name: effect})], out / "confirm.h5", executor,
+                         out / "runs", "confirm", _progress("confirmation"))
+    sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
+    return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds)
+
+
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """Write atomically: a killed write leaves the former file."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=_plain))
+    tmp.replace(path)
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(type(v))

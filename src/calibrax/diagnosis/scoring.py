@@ -1,0 +1,298 @@
+"""Which candidate effect explains the gap: a joint fit per candidate, scored by its Bayes factor.
+
+Inputs are numbers only (no simulator): a design of simulated feature vectors at known calibrated
+parameters and effect magnitudes, and the experiment's replicate features. That keeps the
+scoring testable on synthetic responses with known answers.
+
+**Emulator.** Each feature is a linear model of the design inputs, fitted by least squares:
+``f = b₀ + Σ b_i u_i + Σ_k (c_k g_k + d_k g_k²)`` with ``u`` the calibrated parameters scaled to
+[−1, 1] over the design box (log-scaled where the campaign's parameter is) and ``g_k`` each effect
+parameter as a fraction of its range. Around a calibrated point, over a box a few plausible
+regions wide, seed noise dwarfs any curvature in u; the g² term lets an effect saturate. The
+residual s.d. ``s_j`` (seed scatter plus lack of fit, N − p degrees of freedom) and the residuals'
+correlation ``R`` (shrunk half-way to the identity: features of one test move together, and four
+peaks are not four independent witnesses) give the likelihood its covariance.
+
+**Likelihood.** The experiment's replicate mean ``y`` against the emulator's mean ``μ(θ)``:
+``y ~ N(μ(θ), Σ(θ))`` with ``Σ = D R D / n_exp + h(θ) S R S``, where ``D`` holds each feature's
+replicate s.d. (never below the simulation's seed s.d. ``S``: a real test scatters at least as
+much as the model's seeds) and ``h(θ) = φᵀ(ΦᵀΦ)⁻¹φ`` is the emulator's own variance.
+
+**Score: a Bayes factor, not BIC or a likelihood ratio.** Each model (no effect, or one candidate
+switched on) is scored by its evidence ``Z = ∫ L(θ) p(θ) dθ``, the likelihood averaged over the
+prior: flat over the design box for the calibrated parameters (the same for every model) and the
+effect's own prior (flat over its range, or a measured wall friction angle). A candidate gains
+only as much as its better fit outweighs the prior volume its extra parameter wastes (the Occam
+factor), so an effect that fits no better than the noise loses to "no effect" by itself. BIC
+would need a sample size, which a handful of correlated features does not have, and a likelihood
+ratio test gives a p-value per candidate against "no effect", not a probability for each among
+non-nested candidates. ``Z`` is integrated by quasi-Monte Carlo over the prior (2¹³ Sobol
+points), and the models' probabilities are ``Z_k / Σ Z`` (equal prior odds).
+
+**Verdict.** "no effect" when that model is the most probable and leaves no feature implausible;
+the top candidate when it is the most probable and leaves none implausible at its best fit;
+otherwise "none of the candidates": even the best leaves a feature beyond ``|z| > 3`` (history
+matching's cut-off, Pukelsheim's three-sigma rule for any unimodal distribution).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.special import logsumexp
+from scipy.stats import qmc
+
+#: |z| beyond which a feature is implausible (history matching's cut-off)
+IMPLAUSIBLE_Z = 3.0
+#: weight of the identity in the shrunk residual correlation
+CORRELATION_SHRINKAGE = 0.5
+#: quasi-Monte Carlo points of the evidence integral (a power of two)
+EVIDENCE_POINTS = 2 ** 13
+NO_EFFECT = "none"
+
+
+@dataclass(frozen=True)
+class CandidateSpace:
+    """The parameters a model adds: names, their off values and ranges, and a prior quantile
+    function per parameter (``ppf``: unit samples, shape (n,), to natural values)."""
+
+    name: str
+    label: str
+    parameters: tuple[str, ...]
+    off: tuple[float, ...]
+    high: tuple[float, ...]
+    priors: tuple[object, ...]
+    prior_text: tuple[str, ...] = ()
+
+    def scaled(self, values: np.ndarray) -> np.ndarray:
+        """Natural values, shape (n, k), to fractions of the range above off, shape (n, k)."""
+        off, high = np.asarray(self.off), np.asarray(self.high)
+        return (np.asarray(values, dtype=float) - off) / (high - off)
+
+
+@dataclass(frozen=True)
+class Design:
+    """Simulated features at known inputs.
+
+    Attributes:
+        unit: calibrated parameters scaled to [−1, 1] over the design box, shape (N, d).
+        effects: every candidate's parameters as fractions of their range (0: off), shape (N, K),
+            columns in the order of ``effect_columns``.
+        effect_columns: the names of those columns.
+        features: one row per simulation, shape (N, F), in the order of ``names``.
+        names: feature names.
+    """
+
+    unit: np.ndarray
+    effects: np.ndarray
+    effect_columns: tuple[str, ...]
+    features: np.ndarray
+    names: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Target:
+    """The experiment's replicate statistics per feature (order of ``Design.names``): means,
+    sample s.d. (NaN with one replicate) and the number of replicates."""
+
+    mean: np.ndarray
+    sd: np.ndarray
+    n: int
+
+
+@dataclass
+class Emulator:
+    """The features' linear models (see the module docstring) and their residual statistics."""
+
+    coef: np.ndarray                 # (p, F)
+    gram_inv: np.ndarray             # (p, p), (ΦᵀΦ)⁻¹
+    sd: np.ndarray                   # (F,), residual s.d. of one simulation
+    corr: np.ndarray                 # (F, F), shrunk residual correlation
+    dof: int
+    d: int
+    effect_columns: tuple[str, ...]
+
+    @classmethod
+    def fit(cls, design: Design) -> "Emulator":
+        phi = basis(design.unit, design.effects)
+        n, p = phi.shape
+        if n <= p + 1:
+            raise ValueError(f"the design has {n} simulations; its emulator needs more than {p + 1}")
+        gram_inv = np.linalg.pinv(phi.T @ phi)
+        coef = gram_inv @ phi.T @ design.features
+        resid = design.features - phi @ coef
+        dof = n - np.linalg.matrix_rank(phi)
+        sd = np.sqrt(np.sum(resid ** 2, axis=0) / max(dof, 1))
+        sd = np.where(sd > 0, sd, np.max(np.abs(design.features), axis=0) * 1e-6 + 1e-12)
+        raw = np.corrcoef(resid.T) if resid.shape[1] > 1 else np.ones((1, 1))
+        raw = np.nan_to_num(np.atleast_2d(raw))
+        corr = CORRELATION_SHRINKAGE * np.eye(raw.shape[0]) + (1 - CORRELATION_SHRINKAGE) * raw
+        np.fill_diagonal(corr, 1.0)
+        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns)
+
+    def predict(self, unit: np.ndarray, effects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean features, shape (n, F), and the emulator's relative variance h, shape (n,)."""
+        phi = basis(unit, effects)
+        h = np.einsum("ij,jk,ik->i", phi, self.gram_inv, phi)
+        return phi @ self.coef, np.maximum(h, 0.0)
+
+
+def basis(unit: np.ndarray, effects: np.ndarray) -> np.ndarray:
+    """The regressors [1, u, g, g²], shape (n, 1 + d + 2K)."""
+    unit = np.atleast_2d(unit)
+    effects = np.atleast_2d(effects)
+    return np.hstack([np.ones((unit.shape[0], 1)), unit, effects, effects ** 2])
+
+
+@dataclass(frozen=True)
+class ModelScore:
+    """One model's fit: its log evidence and probability, its best point (natural effect values and
+    the calibrated parameters on [−1, 1]) with the posterior's mean and 95 % interval of each effect
+    parameter, and the standardised residuals z of every feature at its best point."""
+
+    name: str
+    label: str
+    log_evidence: float
+    probability: float
+    best_unit: np.ndarray
+    best_effect: dict[str, float]
+    effect_mean: dict[str, float]
+    effect_interval: dict[str, tuple[float, float]]
+    z: np.ndarray
+    prior_text: tuple[str, ...] = ()
+
+    @property
+    def max_abs_z(self) -> float:
+        return float(np.nanmax(np.abs(self.z))) if self.z.size else 0.0
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """Every model scored (most probable first) and the verdict: the name of the winning candidate,
+    ``"none"`` (the gap is within the noise) or ``"none of the candidates"``."""
+
+    models: list[ModelScore]
+    verdict: str
+    reason: str
+    names: tuple[str, ...] = field(default_factory=tuple)
+
+    def model(self, name: str) -> ModelScore:
+        return next(m for m in self.models if m.name == name)
+
+
+NONE_OF_THEM = "none of the candidates"
+
+
+def _covariances(target: Target, emulator: Emulator, h: np.ndarray) -> np.ndarray:
+    """Σ(θ) for each of n points, shape (n, F, F)."""
+    d_exp = np.where(np.isfinite(target.sd), np.maximum(target.sd, emulator.sd), emulator.sd)
+    base = (d_exp[:, None] * emulator.corr * d_exp[None, :]) / target.n
+    sim = emulator.sd[:, None] * emulator.corr * emulator.sd[None, :]
+    return base[None] + h[:, None, None] * sim[None]
+
+
+def log_likelihood(target: Target, emulator: Emulator, unit: np.ndarray,
+                   effects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian log likelihood of the experiment at n points, shape (n,), and each feature's
+    standardised residual z = (y − μ)/√Σ_jj, shape (n, F)."""
+    mu, h = emulator.predict(unit, effects)
+    cov = _covariances(target, emulator, h)
+    r = target.mean[None, :] - mu
+    chol = np.linalg.cholesky(cov)
+    w = np.linalg.solve(chol, r[..., None])[..., 0]
+    logdet = 2.0 * np.sum(np.log(np.diagonal(chol, axis1=1, axis2=2)), axis=1)
+    f = r.shape[1]
+    ll = -0.5 * (np.sum(w ** 2, axis=1) + logdet + f * math.log(2 * math.pi))
+    z = r / np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    return ll, z
+
+
+def _prior_samples(d: int, candidate: CandidateSpace | None, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    k = len(candidate.parameters) if candidate else 0
+    u = qmc.Sobol(d + k, scramble=True, seed=seed).random(EVIDENCE_POINTS)
+    unit = 2.0 * u[:, :d] - 1.0
+    if not k:
+        return unit, np.zeros((u.shape[0], 0))
+    natural = np.column_stack([prior.ppf(u[:, d + i]) for i, prior in enumerate(candidate.priors)])
+    return unit, natural
+
+
+def score_model(target: Target, emulator: Emulator, candidate: CandidateSpace | None, seed: int = 0) -> ModelScore:
+    """The evidence and best fit of one model (``candidate`` None: no effect)."""
+    unit, natural = _prior_samples(emulator.d, candidate, seed)
+    effects = np.zeros((unit.shape[0], len(emulator.effect_columns)))
+    if candidate is not None:
+        cols = [emulator.effect_columns.index(p) for p in candidate.parameters]
+        effects[:, cols] = candidate.scaled(natural)
+    ll, z = log_likelihood(target, emulator, unit, effects)
+    log_z = float(logsumexp(ll) - math.log(ll.size))
+    best = int(np.argmax(ll))
+    best_unit, best_eff = _refine(target, emulator, unit[best], effects[best], candidate)
+    _, z_best = log_likelihood(target, emulator, best_unit[None], best_eff[None])
+    w = np.exp(ll - ll.max())
+    w /= w.sum()
+    mean, interval, best_natural = {}, {}, {}
+    if candidate is not None:
+        for i, name in enumerate(candidate.parameters):
+            col = emulator.effect_columns.index(name)
+            v = natural[:, i]
+            mean[name] = float(np.sum(w * v))
+            interval[name] = (_weighted_quantile(v, w, 0.025), _weighted_quantile(v, w, 0.975))
+            best_natural[name] = float(candidate.off[i] + best_eff[col] * (candidate.high[i] - candidate.off[i]))
+    name = candidate.name if candidate else NO_EFFECT
+    label = candidate.label if candidate else "no effect"
+    return ModelScore(name, label, log_z, math.nan, best_unit, best_natural, mean, interval, z_best[0],
+                      candidate.prior_text if candidate else ())
+
+
+def _refine(target: Target, emulator: Emulator, unit: np.ndarray, effects: np.ndarray,
+            candidate: CandidateSpace | None) -> tuple[np.ndarray, np.ndarray]:
+    """Polish the best prior sample into the likelihood's maximum within the box and the range."""
+    from scipy.optimize import minimize
+
+    cols = [emulator.effect_columns.index(p) for p in candidate.parameters] if candidate else []
+    x0 = np.concatenate([unit, effects[cols]])
+    bounds = [(-1.0, 1.0)] * unit.size + [(0.0, 1.0)] * len(cols)
+
+    def negative(x: np.ndarray) -> float:
+        eff = effects.copy()
+        eff[cols] = x[unit.size:]
+        return -float(log_likelihood(target, emulator, x[None, :unit.size], eff[None])[0][0])
+
+    res = minimize(negative, x0, bounds=bounds, method="L-BFGS-B")
+    x = res.x if res.success and res.fun <= negative(x0) else x0
+    eff = effects.copy()
+    eff[cols] = x[unit.size:]
+    return x[:unit.size], eff
+
+
+def _weighted_quantile(v: np.ndarray, w: np.ndarray, q: float) -> float:
+    order = np.argsort(v)
+    cdf = np.cumsum(w[order])
+    return float(v[order][min(np.searchsorted(cdf, q), v.size - 1)])
+
+
+def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed: int = 0) -> Ranking:
+    """Score "no effect" and every candidate on the same emulator and give the verdict."""
+    emulator = Emulator.fit(design)
+    models = [score_model(target, emulator, None, seed)] + [score_model(target, emulator, c, seed) for c in candidates]
+    log_z = np.array([m.log_evidence for m in models])
+    prob = np.exp(log_z - logsumexp(log_z))
+    models = [ModelScore(**{**m.__dict__, "probability": float(p)}) for m, p in zip(models, prob)]
+    models.sort(key=lambda m: -m.probability)
+    top = models[0]
+    worst = [design.names[j] for j in np.flatnonzero(np.abs(top.z) > IMPLAUSIBLE_Z)]
+    if worst:
+        verdict = NONE_OF_THEM
+        reason = (f"the most probable model ({top.label}, p = {top.probability:.2f}) still leaves "
+                  f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit")
+    elif top.name == NO_EFFECT:
+        verdict = NO_EFFECT
+        reason = (f"no effect: the gap is within the noise (no candidate raises the evidence; "
+                  f"p(no effect) = {top.probability:.2f})")
+    else:
+        verdict = top.name
+        reason = f"{top.label} explains the gap (p = {top.probability:.2f}; every feature within |z| ≤ {IMPLAUSIBLE_Z:g})"
+    return Ranking(models, verdict, reason, design.names)

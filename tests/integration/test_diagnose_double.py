@@ -1,0 +1,103 @@
+"""``calibrax diagnose`` as a user runs it, on the analytic TEST DOUBLE (core machinery only: the
+command line, the stores, resume, the report, bad input). The double's effects are known
+functions with seed noise (tests/doubles/analytic_simulator.py); the physics is tested on
+numba_dem in test_diagnose_numba_dem.py.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from calibrax import ShearCellSpec
+from tests.conftest import calibrax_cli, double_env
+
+NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
+
+
+def _completions(folder: Path) -> int:
+    return sum(len(p.read_text().splitlines()) for p in folder.rglob("completions.log"))
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory, request) -> Path:
+    """A finished double campaign against a pseudo-experiment made with wall friction 0.3."""
+    import os
+
+    from calibrax.core.pseudo import write_pseudo_experiment
+
+    folder = tmp_path_factory.mktemp("diagnose-double")
+    spec = ShearCellSpec.preset("tiny", material={"youngs_modulus": 2e10, "sliding_friction": 0.45},
+                                geometry={"wall_friction": 0.3})
+    os.environ.update(NOISE)
+    try:
+        write_pseudo_experiment(spec, "analytic_double", folder / "walled", 3)
+    finally:
+        os.environ.pop("CALIBRAX_DOUBLE_NOISE")
+    config = {"name": "walled", "simulator": "analytic_double", "experiment": "walled.yaml", "cell": {"preset": "tiny"},
+              "parameters": {"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                             "sliding_friction": {"low": 0.1, "high": 0.9}},
+              "metric": "robust", "acquisition": {"name": "qei", "q": 2}, "budget": {"initial": 4, "iterations": 1},
+              "executor": {"name": "local", "workers": 2}, "store": "walled.h5", "seed": 1}
+    cfg = folder / "campaign.yaml"
+    cfg.write_text(yaml.safe_dump(config))
+    run = calibrax_cli("run", str(cfg), "-q", env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    return folder / "walled.h5"
+
+
+def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign: Path) -> None:
+    run = calibrax_cli("diagnose", str(campaign), "--budget", "30", env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    out = campaign.with_suffix(".diagnosis")
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert data["verdict"] == "wall_friction", data["reason"]
+    assert "Lateral wall friction explains the gap" in run.stdout
+    lo, hi = data["recalibrated"]["effect_interval"]["wall_friction"]
+    assert lo < 0.3 < hi
+    assert abs(data["recalibrated"]["params"]["sliding_friction"] - 0.45) < 0.05
+    assert data["simulations"] == {"design": 26, "design_failed": 0, "confirm": 4, "total": 30}
+    for name in ("diagnosis.md", "design.h5", "confirm.h5", "diagnosis_residuals.png", "diagnosis_scores.png",
+                 "diagnosis_curves.png"):
+        assert (out / name).is_file(), name
+    # progress says how many are done and to go, and which engine ran which seed
+    assert "diagnose design: 26 of 26 simulations done, 0 to go" in run.stderr
+    assert "on analytic_double, seed 700000000" in run.stderr
+
+    # run again: everything resumes from the stores, nothing is simulated again
+    before = _completions(out / "runs")
+    again = calibrax_cli("diagnose", str(campaign), "--budget", "30", env=double_env(**NOISE))
+    assert again.returncode == 0, again.stderr
+    assert _completions(out / "runs") == before
+    assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "wall_friction"
+
+    # the campaign's report includes the diagnosis
+    report = calibrax_cli("report", str(campaign))
+    assert report.returncode == 0, report.stderr
+    page = (campaign.with_suffix(".report") / "index.html").read_text()
+    assert "Diagnosis of the sim-to-real gap" in page and "diagnosis_residuals.png" in page
+
+
+@pytest.mark.parametrize("args, key", [
+    (["--effects", "wall_friction,bogus"], "--effects"),
+    (["--budget", "5"], "--budget"),
+    (["--fit-on", "locus,density,flow,shape"], "--fit-on"),
+    (["--fit-on", "curves"], "--fit-on"),
+    (["--backend", "nonesuch"], "--backend"),
+    (["--workers", "0"], "--workers"),
+])
+def test_bad_input_names_the_option_and_runs_nothing(campaign: Path, tmp_path: Path, args: list[str], key: str) -> None:
+    out = tmp_path / "never"
+    run = calibrax_cli("diagnose", str(campaign), "-o", str(out), *args)
+    assert run.returncode == 2, run.stderr
+    assert key in run.stderr
+    assert not out.exists()
+
+
+def test_a_store_that_does_not_exist_is_named(tmp_path: Path) -> None:
+    run = calibrax_cli("diagnose", str(tmp_path / "missing.h5"))
+    assert run.returncode == 2
+    assert "missing.h5" in run.stderr

@@ -1,0 +1,87 @@
+"""End to end on the real numba_dem engine: a pseudo-experiment made with lateral wall friction
+switched on (the diagnosis is not told) is answered "wall friction" first, and the gap on the
+held-out features shrinks once it is added; one made without any hidden effect is answered
+"no effect".
+
+Both are diagnosed at the same calibrated point, so the second diagnosis starts from a copy of the
+first one's design store (its simulations do not depend on the experiment) and runs only what is
+its own: a resumed study, as a killed diagnosis would be.
+
+Cost: 6 replicate simulations for the two experiments, a design of 21 and 3 confirmations, all at
+``tiny`` on 2 workers (about 10 minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from calibrax import ShearCellSpec
+from calibrax.core.executor import LocalExecutor
+from calibrax.core.experiment import load_experiment
+from calibrax.core.parameters import ParameterSpace
+from calibrax.core.pseudo import write_pseudo_experiment
+from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
+from calibrax.diagnosis.gap import gap_size
+
+pytestmark = pytest.mark.slow
+
+TRUTH = {"youngs_modulus": 2.0e10, "sliding_friction": 0.35}
+HIDDEN_WALL_FRICTION = 0.4
+BUDGET = Budget(replicates=3, baseline=3, per_effect=5, confirm=3)
+
+
+def _spec() -> ShearCellSpec:
+    return ShearCellSpec.preset("tiny", "paper", material=dict(TRUTH, rolling_friction=0.5),
+                                numerics={"threads": 1}).validate()
+
+
+def _calibrated(experiment_path: Path) -> Calibrated:
+    space = ParameterSpace.from_config({"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                                        "sliding_friction": {"low": 0.1, "high": 0.9}})
+    return Calibrated("numba_dem", _spec(), space, load_experiment(experiment_path), dict(TRUTH),
+                      {"youngs_modulus": (1.0e10, 4.0e10), "sliding_friction": (0.25, 0.45)})
+
+
+@pytest.fixture(scope="module")
+def diagnosed(tmp_path_factory) -> dict:
+    root = tmp_path_factory.mktemp("diagnose")
+    walled = write_pseudo_experiment(_spec().replace(geometry={"wall_friction": HIDDEN_WALL_FRICTION}), "numba_dem",
+                                     root / "walled", replicates=3)
+    plain = write_pseudo_experiment(_spec(), "numba_dem", root / "plain", replicates=3,
+                                    first_seed=(1 << 30) + 5000)
+    effects = effects_by_name()
+    first = diagnose(_calibrated(walled), effects, root / "walled.diagnosis", LocalExecutor(2), budget=BUDGET,
+                     executor_factory=lambda: LocalExecutor(2))
+    (root / "plain.diagnosis").mkdir()
+    shutil.copy(root / "walled.diagnosis" / "design.h5", root / "plain.diagnosis" / "design.h5")
+    second = diagnose(_calibrated(plain), effects, root / "plain.diagnosis", LocalExecutor(2), budget=BUDGET,
+                      executor_factory=lambda: LocalExecutor(2))
+    return {"walled": first, "plain": second, "root": root}
+
+
+def test_hidden_wall_friction_is_named_first(diagnosed) -> None:
+    d = diagnosed["walled"]
+    assert d.ranking.models[0].name == "wall_friction", d.ranking.reason
+    assert d.verdict == "wall_friction", d.ranking.reason
+    assert any(g.implausible for g in d.before), "the hidden effect should open a gap at the calibrated point"
+
+
+def test_the_held_out_gap_shrinks_once_wall_friction_is_added(diagnosed) -> None:
+    d = diagnosed["walled"]
+    assert d.recalibrated["effect"] == "wall_friction"
+    lo, hi = d.recalibrated["effect_interval"]["wall_friction"]
+    assert lo < HIDDEN_WALL_FRICTION < hi
+    before, after = gap_size(d.held_out("before")), gap_size(d.held_out("after"))
+    assert after < before, (before, after)
+    assert d.simulations["confirm"] == BUDGET.confirm
+
+
+def test_no_hidden_effect_is_answered_no_effect(diagnosed) -> None:
+    d = diagnosed["plain"]
+    assert d.verdict == "none", d.ranking.reason
+    assert d.simulations["confirm"] == 0
+    # the design came from the copy: nothing of it was simulated again
+    assert (diagnosed["root"] / "plain.diagnosis" / "diagnosis.json").is_file()
