@@ -101,3 +101,20 @@ def test_a_store_that_does_not_exist_is_named(tmp_path: Path) -> None:
     run = calibrax_cli("diagnose", str(tmp_path / "missing.h5"))
     assert run.returncode == 2
     assert "missing.h5" in run.stderr
+
+
+def test_an_experiment_with_peaks_only_is_diagnosed_on_the_yield_locus(tmp_path: Path) -> None:
+    """No curves, no density: the locus alone ranks the candidates, and with nothing held out no
+    recalibration is run (the summary says why)."""
+    from tests.conftest import write_double_campaign
+
+    cfg = write_double_campaign(tmp_path, metric="c_aif", budget={"initial": 4, "iterations": 1})
+    assert calibrax_cli("run", str(cfg), "-q", env=double_env(**NOISE)).returncode == 0
+    store = tmp_path / "runs" / "double.h5"
+    run = calibrax_cli("diagnose", str(store), "--budget", "18", "--effects", "wall_friction,cohesion",
+                       env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    data = json.loads((store.with_suffix(".diagnosis") / "diagnosis.json").read_text())
+    assert set(data["features"]) == {"peak_ratio_9kPa", "peak_ratio_8kPa", "peak_ratio_7kPa", "peak_ratio_6kPa"}
+    assert data["judge_on"] == [] and data["simulations"]["confirm"] == 0
+    assert "none is left to judge it on" in run.stdout

@@ -65,7 +65,11 @@ def markdown(d: Diagnosis) -> str:
         lines.append(f"| {m.label} | {m.probability:.3f} | {m.log_evidence:.2f} | {best} | {interval} | "
                      f"{m.max_abs_z:.2f} | {'; '.join(m.prior_text) or '–'} |")
     lines += ["", "## 3. How far it shrinks", ""]
-    if not d.recalibrated:
+    if not d.judge_on:
+        lines.append(f"No recalibration: every feature the experiment has ({', '.join(d.features)}) is in the groups "
+                     f"it would be fitted to ({', '.join(d.fit_on)}), so none is left to judge it on. τ curves or a "
+                     "bulk density in the experiment, or other --fit-on groups, give it some.")
+    elif not d.recalibrated:
         lines.append("Nothing to add: no effect was found, so no recalibration was run.")
     else:
         r = d.recalibrated

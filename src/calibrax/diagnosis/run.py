@@ -271,7 +271,10 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     after: list[gaps.FeatureGap] = []
     confirm_done = 0
     top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
-    if ranking.verdict != NO_EFFECT and top is not None:
+    if not judge:
+        log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
+                 "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
+    elif ranking.verdict != NO_EFFECT and top is not None:
         recal, after, confirm_done = _recalibrate(calibrated, backend, box, by_name[top.name], design, target,
                                                   spaces, fit_on, budget, seed, out,
                                                   executor_factory() if executor_factory else executor, experiment,

@@ -1,0 +1,99 @@
+"""The diagnosis's candidate effects, design box, budget split and feature gaps (no simulator)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from calibrax import ShearCellSpec
+from calibrax.core.experiment import Experiment
+from calibrax.core.parameters import ParameterSpace
+from calibrax.diagnosis import effects_by_name
+from calibrax.diagnosis.design import MIN_HALF_WIDTH, Box, Budget, design_points
+from calibrax.diagnosis.effects import TruncatedNormalPrior, UniformPrior
+from calibrax.diagnosis.gap import FeatureGap, feature_gaps, parse_groups
+from calibrax.errors import ConfigError
+
+SPACE = ParameterSpace.from_config({"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                                    "sliding_friction": {"low": 0.1, "high": 0.9}})
+
+
+def _experiment(**extra) -> Experiment:
+    sig = np.array([9e3, 8e3, 7e3, 6e3])
+    return Experiment("e", sig, sig * 0.6, np.ones(4, dtype=int), **extra)
+
+
+def test_each_builtin_effect_switches_its_own_field_and_off_is_the_plain_model() -> None:
+    spec = ShearCellSpec.preset("tiny")
+    wall, psd, coh = effects_by_name(["wall_friction", "size_distribution", "cohesion"])
+    assert wall.apply(spec, {"wall_friction": 0.3}).geometry.wall_friction == 0.3
+    wide = psd.apply(spec, {"sigma_log": 0.25})
+    assert wide.size_distribution.kind == "lognormal" and wide.size_distribution.sigma_log == 0.25
+    assert psd.apply(spec, {"sigma_log": 0.0}).size_distribution.kind == "mono"
+    assert coh.apply(spec, {"cohesion_energy_density": 1e7}).material.cohesion_energy_density == 1e7
+    for effect in (wall, psd, coh):
+        off = {p.name: p.off for p in effect.parameters}
+        assert effect.apply(spec, off).validate().spec_hash() == spec.spec_hash()
+
+
+def test_a_measured_wall_friction_angle_is_the_wall_frictions_prior() -> None:
+    (wall,) = effects_by_name(["wall_friction"])
+    assert isinstance(wall.prior(_experiment())["wall_friction"], UniformPrior)
+    prior = wall.prior(_experiment(wall_friction_angle_deg=15.0))["wall_friction"]
+    assert isinstance(prior, TruncatedNormalPrior)
+    assert prior.mean == pytest.approx(math.tan(math.radians(15.0)))
+    assert "15°" in prior.describe()
+    median = float(prior.ppf(np.array([0.5]))[0])
+    assert median == pytest.approx(prior.mean, abs=0.01)
+
+
+def test_unknown_effects_are_refused_by_name() -> None:
+    with pytest.raises(ConfigError, match="--effects.*known"):
+        effects_by_name(["wall_friction", "humidity"])
+
+
+def test_the_box_reaches_past_a_narrow_plausible_region_and_stays_in_bounds() -> None:
+    box = Box.around(SPACE, {"youngs_modulus": 2e10, "sliding_friction": 0.85},
+                     {"youngs_modulus": (5e9, 5e10), "sliding_friction": (0.84, 0.86)})
+    i = SPACE.names.index("sliding_friction")
+    assert box.high[i] == pytest.approx(0.9)                          # clipped at the bound
+    assert box.low[i] == pytest.approx(0.85 - MIN_HALF_WIDTH * 0.8)   # widened to ±15 % of the range
+    j = SPACE.names.index("youngs_modulus")
+    assert (box.low[j], box.high[j]) == pytest.approx((5e9, 5e10))    # the plausible region where wider
+    corners = box.natural(np.array([[-1.0, -1.0], [1.0, 1.0]]))
+    assert np.allclose(box.scaled(corners), [[-1, -1], [1, 1]])
+
+
+def test_the_design_spends_the_budget_as_stated_with_distinct_seeds() -> None:
+    box = Box.around(SPACE, {"youngs_modulus": 2e10, "sliding_friction": 0.35})
+    effects = effects_by_name()
+    budget = Budget.for_total(36, len(effects))
+    assert budget == Budget(4, 4, 8, 4) and budget.total(3) == 36
+    points = design_points(box, effects, budget)
+    seeds = [s for p in points for s in p.seeds]
+    assert len(seeds) == 32 and len(set(seeds)) == 32
+    assert points[0].label == "calibrated" and len(points[0].seeds) == 4
+    for effect in effects:
+        mine = [p for p in points if p.effect == effect.name]
+        assert len(mine) == 8
+        (param,) = effect.parameters
+        values = [p.effect_values[param.name] for p in mine]
+        assert min(values) >= param.off and max(values) <= param.high and np.ptp(values) > 0.5 * (param.high - param.off)
+    assert Budget.for_total(20, 3) == Budget(3, 3, 3, 3)
+
+
+def test_feature_gaps_never_take_the_experiments_spread_below_the_seeds() -> None:
+    sims = [{"a": 1.0}, {"a": 1.2}, {"a": 0.8}, {"a": 1.0}]
+    exp = [{"a": 2.0}, {"a": 2.0001}, {"a": 1.9999}]
+    (gap,) = feature_gaps(sims, exp, ("a",), seed_sd={"a": 0.2})
+    assert gap.stderr == pytest.approx(math.sqrt(0.2 ** 2 / 3 + 0.2 ** 2 / 4))
+    assert gap.z == pytest.approx(-1.0 / gap.stderr) and gap.implausible
+    assert not FeatureGap("b", "flow", 1.0, 0.1, 3, 1.1, 0.1, 4).implausible
+
+
+@pytest.mark.parametrize("text", ["", "locus,locus", "curves", "locus,density,flow,shape"])
+def test_fit_groups_are_checked(text: str) -> None:
+    with pytest.raises(ConfigError, match="--fit-on"):
+        parse_groups(text)
