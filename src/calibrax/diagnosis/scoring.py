@@ -29,10 +29,12 @@ ratio test gives a p-value per candidate against "no effect", not a probability 
 non-nested candidates. ``Z`` is integrated by quasi-Monte Carlo over the prior (2¹³ Sobol
 points), and the models' probabilities are ``Z_k / Σ Z`` (equal prior odds).
 
-**Verdict.** "no effect" when that model is the most probable and leaves no feature implausible;
-the top candidate when it is the most probable and leaves none implausible at its best fit;
-otherwise "none of the candidates": even the best leaves a feature beyond ``|z| > 3`` (history
-matching's cut-off, Pukelsheim's three-sigma rule for any unimodal distribution).
+**Verdict.** The top candidate when its Bayes factor against "no effect" is at least 3 ("positive"
+evidence on Kass and Raftery's scale: a candidate that merely ties with the noise is not a finding)
+and it leaves no feature implausible at its best fit; "no effect" when no candidate reaches that
+factor and "no effect" itself leaves no feature implausible; otherwise "none of the candidates":
+even the best model leaves a feature beyond ``|z| > 3`` (history matching's cut-off, Pukelsheim's
+three-sigma rule for any unimodal distribution).
 """
 
 from __future__ import annotations
@@ -51,6 +53,9 @@ CORRELATION_SHRINKAGE = 0.5
 #: quasi-Monte Carlo points of the evidence integral (a power of two)
 EVIDENCE_POINTS = 2 ** 13
 NO_EFFECT = "none"
+#: a candidate wins only when its evidence beats "no effect" by this factor ("positive" evidence on
+#: Kass and Raftery's scale); below it, the gap is put down to noise
+MIN_BAYES_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -282,17 +287,21 @@ def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed:
     prob = np.exp(log_z - logsumexp(log_z))
     models = [ModelScore(**{**m.__dict__, "probability": float(p)}) for m, p in zip(models, prob)]
     models.sort(key=lambda m: -m.probability)
-    top = models[0]
+    none = next(m for m in models if m.name == NO_EFFECT)
+    best = next((m for m in models if m.name != NO_EFFECT), None)
+    factor = math.exp(min(best.log_evidence - none.log_evidence, 700.0)) if best else 0.0
+    top = best if best is not None and factor >= MIN_BAYES_FACTOR else none
     worst = [design.names[j] for j in np.flatnonzero(np.abs(top.z) > IMPLAUSIBLE_Z)]
     if worst:
         verdict = NONE_OF_THEM
-        reason = (f"the most probable model ({top.label}, p = {top.probability:.2f}) still leaves "
+        reason = (f"the best model ({top.label}, p = {top.probability:.2f}) still leaves "
                   f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit")
     elif top.name == NO_EFFECT:
         verdict = NO_EFFECT
-        reason = (f"no effect: the gap is within the noise (no candidate raises the evidence; "
-                  f"p(no effect) = {top.probability:.2f})")
+        reason = (f"no effect: the gap is within the noise (no candidate's Bayes factor against no effect reaches "
+                  f"{MIN_BAYES_FACTOR:g}; the best, {best.label if best else '–'}, has {factor:.2g})")
     else:
         verdict = top.name
-        reason = f"{top.label} explains the gap (p = {top.probability:.2f}; every feature within |z| ≤ {IMPLAUSIBLE_Z:g})"
+        reason = (f"{top.label} explains the gap (p = {top.probability:.2f}, Bayes factor {factor:.3g} against no "
+                  f"effect; every feature within |z| ≤ {IMPLAUSIBLE_Z:g} at its best fit)")
     return Ranking(models, verdict, reason, design.names)
