@@ -88,6 +88,7 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
     (["--fit-on", "curves"], "--fit-on"),
     (["--backend", "nonesuch"], "--backend"),
     (["--workers", "0"], "--workers"),
+    (["--backend", "yade", "--effects", "cohesion"], "yade cannot model cohesion"),
 ])
 def test_bad_input_names_the_option_and_runs_nothing(campaign: Path, tmp_path: Path, args: list[str], key: str) -> None:
     out = tmp_path / "never"
