@@ -54,6 +54,7 @@ def markdown(d: Diagnosis) -> str:
              + f"; calibrated point " + ", ".join(f"{k} = {v:.4g}" for k, v in d.centre.items()) + ".",
              f"Cost: {d.simulations['total']} simulations ({d.simulations['design']} in the design, "
              f"{d.simulations['design_failed']} of them failed; {d.simulations['confirm']} to confirm), "
+             f"{d.simulations.get('engine_seconds', 0) / 60:.0f} min of engine time in all, "
              f"{d.wall_time / 60:.1f} min of wall time in this run.", "",
              "## 1. Where the gap lies (calibrated point, replicate seeds)", "", *_gap_table(d.before, d.judge_on), "",
              "## 2. Which effect", "",

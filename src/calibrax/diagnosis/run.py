@@ -269,17 +269,19 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     judge = [n for n in names if gaps.group_of(n) not in fit_on]
     recal: dict[str, Any] = {}
     after: list[gaps.FeatureGap] = []
-    confirm_done = 0
+    confirm_done, confirm_engine = 0, 0.0
     top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
     if not judge:
         log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
                  "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
     elif ranking.verdict != NO_EFFECT and top is not None:
-        recal, after, confirm_done = _recalibrate(calibrated, backend, box, by_name[top.name], design, target,
+        recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name], design, target,
                                                   spaces, fit_on, budget, seed, out,
                                                   executor_factory() if executor_factory else executor, experiment,
                                                   seed_sd, names)
-    sims = {"design": int(sum(len(p.seeds) for p in points)), "design_failed": int(failed),
+    engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + confirm_engine
+    sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
+            "design_failed": int(failed),
             "confirm": int(confirm_done), "total": int(sum(len(p.seeds) for p in points) + confirm_done)}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), before, ranking, recal,
                        after, sims, time.monotonic() - started,
@@ -320,11 +322,12 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
     point = DesignPoint("recalibrated", params, effect.name, values,
                         tuple(SEED_BASE + 1000 * seed + 900 + i for i in range(budget.confirm)))
     if budget.confirm < 1:
-        return recal, [], 0
+        return recal, [], 0, 0.0
     outcomes = run_study([_case(calibrated, backend, point, {effect.name: effect})], out / "confirm.h5", executor,
                          out / "runs", "confirm", _progress("confirmation"))
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
-    return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds)
+    engine = sum(r.provenance.wall_time for r in outcomes[0].good)
+    return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds), engine
 
 
 def write_json(path: Path, data: dict[str, Any]) -> None:
