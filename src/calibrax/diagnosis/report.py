@@ -10,7 +10,7 @@ import numpy as np
 
 from calibrax.diagnosis.gap import FeatureGap, gap_size
 from calibrax.diagnosis.run import Calibrated, Diagnosis
-from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z, NO_EFFECT, NONE_OF_THEM
+from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z, MIN_BAYES_FACTOR, NO_EFFECT, NONE_OF_THEM
 
 CAPTIONS = {
     "diagnosis_residuals": "Each feature's standardised residual (simulation − experiment over the combined "
@@ -18,8 +18,8 @@ CAPTIONS = {
                            "effect (after); the shaded band is |z| ≤ 3; held-out features are marked *.",
     "diagnosis_curves": "τ curves of each shear step: the experiment's replicates, the calibrated model's seeds "
                         "(before) and the recalibrated model's seeds (after).",
-    "diagnosis_scores": "Each model's probability (Bayes factor against the others, equal prior odds) and the "
-                        "largest |z| it leaves at its best fit.",
+    "diagnosis_scores": "Each model's Bayes factor against no effect (log scale; the verdict in green), its "
+                        "probability (equal prior odds) and the largest |z| it leaves at its best fit.",
 }
 
 
@@ -134,16 +134,22 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
     ax.set_title("Where the gap lies (* held out of the recalibration)", fontsize=10)
     files += _save(fig, out, "diagnosis_residuals")
 
-    fig, ax = plt.subplots(figsize=(6, 0.5 * len(d.ranking.models) + 1.5))
+    fig, ax = plt.subplots(figsize=(7, 0.55 * len(d.ranking.models) + 1.6))
+    none = next(m for m in d.ranking.models if m.name == NO_EFFECT)
     labels = [m.label for m in d.ranking.models]
-    ax.barh(labels, [m.probability for m in d.ranking.models], color="tab:green")
-    for k, m in enumerate(d.ranking.models):
-        ax.text(min(m.probability + 0.02, 0.8), k, f"p = {m.probability:.2f}, max |z| = {m.max_abs_z:.1f}",
-                va="center", fontsize=8)
-    ax.set_xlim(0, 1)
+    log_bf = np.array([(m.log_evidence - none.log_evidence) / math.log(10) for m in d.ranking.models])
+    colours = ["tab:green" if m.name == d.verdict else "0.6" for m in d.ranking.models]
+    ax.barh(labels, log_bf, color=colours)
+    ax.axvline(math.log10(MIN_BAYES_FACTOR), color="k", ls="--", lw=0.8)
+    ax.axvline(0, color="k", lw=0.6)
+    span = max(np.ptp(np.append(log_bf, [0, math.log10(MIN_BAYES_FACTOR)])), 1.0)
+    for k, (m, x) in enumerate(zip(d.ranking.models, log_bf)):
+        ax.text(max(x, 0) + 0.02 * span, k, f"p = {m.probability:.2f}, max |z| = {m.max_abs_z:.1f}", va="center",
+                fontsize=8)
+    ax.set_xlim(min(log_bf.min(), 0) - 0.05 * span, max(log_bf.max(), math.log10(MIN_BAYES_FACTOR)) + 0.45 * span)
     ax.invert_yaxis()
-    ax.set_xlabel("probability (Bayes factor, equal prior odds)")
-    ax.set_title(f"Which effect: {d.verdict}", fontsize=10)
+    ax.set_xlabel(f"log₁₀ Bayes factor against no effect (dashed: {MIN_BAYES_FACTOR:g}, the least a finding needs)")
+    ax.set_title(f"Which effect: {headline(d).split(' (')[0]}", fontsize=10)
     files += _save(fig, out, "diagnosis_scores")
     files += _curves(d, calibrated, out, plt, _save)
     return files
