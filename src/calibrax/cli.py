@@ -109,7 +109,7 @@ def _parser() -> argparse.ArgumentParser:
                                       "on a DEM design around the campaign's answer and scored by its Bayes factor "
                                       "against 'no effect'; the answer can also be 'no effect' or 'none of the "
                                       "candidates'), and how far the gap shrinks once the top effect is added "
-                                      "(recalibrated on one feature group, judged on the other with fresh seeds). "
+                                      "(recalibrated on some feature groups, judged on the others with fresh seeds). "
                                       "Writes DIR/diagnosis.md, diagnosis.json, figures and the simulations' stores "
                                       "(design.h5, confirm.h5): run it again to resume. The campaign report "
                                       "includes it. README, 'Diagnosing the sim-to-real gap'.")
@@ -368,12 +368,12 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     from calibrax.plugins.manager import HOOKS, get_manager
 
     manager = get_manager()
-    print(f"{'kind':<12} {'name':<14} {'version':<10} distribution")
+    print(f"{'kind':<12} {'name':<18} {'version':<10} distribution")
     for kind in HOOKS:
         if not manager.plugins(kind):
             print(f"{kind:<12} (none installed)")
         for name, info in sorted(manager.plugins(kind).items()):
-            print(f"{kind:<12} {name:<14} {info.version:<10} {info.distribution}")
+            print(f"{kind:<12} {name:<18} {info.version:<10} {info.distribution}")
     if manager.broken:
         print("\nbroken (skipped):")
         for b in manager.broken:
