@@ -108,3 +108,17 @@ def test_a_measured_prior_moves_the_evidence() -> None:
     wrong = CandidateSpace("wall", "wall", ("wall",), (0.0,), (1.0,), (TruncatedNormalPrior(0.05, 0.02, 0.0, 1.0),))
     assert score_model(target, emulator, right).log_evidence > flat.log_evidence
     assert score_model(target, emulator, wrong).log_evidence < flat.log_evidence
+
+
+def test_the_emulator_bends_only_where_the_response_does() -> None:
+    """Quadratic terms in the calibrated parameters join when left-out simulations say so."""
+    from calibrax.diagnosis.scoring import Emulator
+
+    rng = np.random.default_rng(7)
+    design = synthetic_design(rng, per_effect=12)
+    assert not Emulator.fit(design).quadratic
+    bent = design.features + 6.0 * design.unit[:, :1] ** 2       # saturating in the first parameter
+    curved = Design(design.unit, design.effects, design.effect_columns, bent, design.names)
+    emulator = Emulator.fit(curved)
+    assert emulator.quadratic
+    assert np.all(emulator.sd < 1.5)                               # back to the seed noise (1)

@@ -7,8 +7,9 @@ scoring testable on synthetic responses with known answers.
 **Emulator.** Each feature is a linear model of the design inputs, fitted by least squares:
 ``f = b₀ + Σ b_i u_i + Σ_k (c_k g_k + d_k g_k²)`` with ``u`` the calibrated parameters scaled to
 [−1, 1] over the design box (log-scaled where the campaign's parameter is) and ``g_k`` each effect
-parameter as a fraction of its range. Around a calibrated point, over a box a few plausible
-regions wide, seed noise dwarfs any curvature in u; the g² term lets an effect saturate. The
+parameter as a fraction of its range; the g² term lets an effect saturate. Squares and products
+of u join when they predict left-out simulations better (see :meth:`Emulator.fit`): over a box a
+few plausible regions wide seed noise dwarfs any curvature in u, over a whole range it does not. The
 residual s.d. ``s_j`` (seed scatter plus lack of fit, N − p degrees of freedom) and the residuals'
 correlation ``R`` (shrunk half-way to the identity: features of one test move together, and four
 peaks are not four independent witnesses) give the likelihood its covariance.
@@ -118,13 +119,24 @@ class Emulator:
     dof: int
     d: int
     effect_columns: tuple[str, ...]
+    quadratic: bool = False
 
     @classmethod
     def fit(cls, design: Design) -> "Emulator":
-        phi = basis(design.unit, design.effects)
-        n, p = phi.shape
+        """Least squares on the linear basis, or on the one quadratic in the calibrated parameters
+        too when that predicts the design's left-out simulations better (PRESS, the leave-one-out
+        residuals e_i/(1 − h_ii), summed over the features in units of their spread) and leaves
+        at least as many degrees of freedom as it has coefficients: a box the size of the whole
+        parameter range bends (peak τ/σ saturates in μs), a few plausible regions wide it does not."""
+        linear = basis(design.unit, design.effects)
+        n, p = linear.shape
         if n <= p + 1:
             raise ValueError(f"the design has {n} simulations; its emulator needs more than {p + 1}")
+        quadratic = False
+        curved = basis(design.unit, design.effects, quadratic=True)
+        if n - curved.shape[1] >= curved.shape[1]:
+            quadratic = _press(curved, design.features) < _press(linear, design.features)
+        phi = curved if quadratic else linear
         gram_inv = np.linalg.pinv(phi.T @ phi)
         coef = gram_inv @ phi.T @ design.features
         resid = design.features - phi @ coef
@@ -135,20 +147,36 @@ class Emulator:
         raw = np.nan_to_num(np.atleast_2d(raw))
         corr = CORRELATION_SHRINKAGE * np.eye(raw.shape[0]) + (1 - CORRELATION_SHRINKAGE) * raw
         np.fill_diagonal(corr, 1.0)
-        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns)
+        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic)
 
     def predict(self, unit: np.ndarray, effects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean features, shape (n, F), and the emulator's relative variance h, shape (n,)."""
-        phi = basis(unit, effects)
+        phi = basis(unit, effects, self.quadratic)
         h = np.einsum("ij,jk,ik->i", phi, self.gram_inv, phi)
         return phi @ self.coef, np.maximum(h, 0.0)
 
 
-def basis(unit: np.ndarray, effects: np.ndarray) -> np.ndarray:
-    """The regressors [1, u, g, g²], shape (n, 1 + d + 2K)."""
+def _press(phi: np.ndarray, y: np.ndarray) -> float:
+    """Leave-one-out squared residuals of a least-squares fit, summed over features scaled by
+    their spread."""
+    gram_inv = np.linalg.pinv(phi.T @ phi)
+    hat = np.einsum("ij,jk,ik->i", phi, gram_inv, phi)
+    resid = y - phi @ (gram_inv @ phi.T @ y)
+    loo = resid / np.maximum(1.0 - hat, 1e-9)[:, None]
+    scale = np.std(y, axis=0)
+    return float(np.sum((loo / np.where(scale > 0, scale, 1.0)) ** 2))
+
+
+def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False) -> np.ndarray:
+    """The regressors [1, u, g, g²], shape (n, 1 + d + 2K), and with ``quadratic`` the squares and
+    products of u too."""
     unit = np.atleast_2d(unit)
     effects = np.atleast_2d(effects)
-    return np.hstack([np.ones((unit.shape[0], 1)), unit, effects, effects ** 2])
+    cols = [np.ones((unit.shape[0], 1)), unit, effects, effects ** 2]
+    if quadratic:
+        d = unit.shape[1]
+        cols.append(np.column_stack([unit[:, i] * unit[:, j] for i in range(d) for j in range(i, d)]))
+    return np.hstack(cols)
 
 
 @dataclass(frozen=True)
