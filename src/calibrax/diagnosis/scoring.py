@@ -51,6 +51,8 @@ from scipy.stats import qmc
 IMPLAUSIBLE_Z = 3.0
 #: weight of the identity in the shrunk residual correlation
 CORRELATION_SHRINKAGE = 0.5
+#: residual degrees of freedom the quadratic emulator must leave (PRESS guards against the rest)
+MIN_QUADRATIC_DOF = 6
 #: quasi-Monte Carlo points of the evidence integral (a power of two)
 EVIDENCE_POINTS = 2 ** 13
 NO_EFFECT = "none"
@@ -126,7 +128,7 @@ class Emulator:
         """Least squares on the linear basis, or on the one quadratic in the calibrated parameters
         too when that predicts the design's left-out simulations better (PRESS, the leave-one-out
         residuals e_i/(1 − h_ii), summed over the features in units of their spread) and leaves
-        at least as many degrees of freedom as it has coefficients: a box the size of the whole
+        ``MIN_QUADRATIC_DOF`` residual degrees of freedom: a box the size of the whole
         parameter range bends (peak τ/σ saturates in μs), a few plausible regions wide it does not."""
         linear = basis(design.unit, design.effects)
         n, p = linear.shape
@@ -134,7 +136,7 @@ class Emulator:
             raise ValueError(f"the design has {n} simulations; its emulator needs more than {p + 1}")
         quadratic = False
         curved = basis(design.unit, design.effects, quadratic=True)
-        if n - curved.shape[1] >= curved.shape[1]:
+        if n - curved.shape[1] >= MIN_QUADRATIC_DOF:
             quadratic = _press(curved, design.features) < _press(linear, design.features)
         phi = curved if quadratic else linear
         gram_inv = np.linalg.pinv(phi.T @ phi)
