@@ -111,7 +111,7 @@ def _parser() -> argparse.ArgumentParser:
                                       "candidates'), and how far the gap shrinks once the top effect is added "
                                       "(recalibrated on some feature groups, judged on the others with fresh seeds). "
                                       "Writes DIR/diagnosis.md, diagnosis.json, figures and the simulations' stores "
-                                      "(design.h5, confirm.h5): run it again to resume. The campaign report "
+                                      "(design-*.h5, confirm-*.h5): run it again to resume. The campaign report "
                                       "includes it. README, 'Diagnosing the sim-to-real gap'.")
     diag.add_argument("store", type=Path, help="the calibrated campaign's HDF5 store (it must have an answer)")
     diag.add_argument("--effects", metavar="LIST",

@@ -60,9 +60,9 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
     assert lo < 0.3 < hi
     assert abs(data["recalibrated"]["params"]["sliding_friction"] - 0.45) < 0.05
     assert {k: v for k, v in data["simulations"].items() if k != "engine_seconds"} == {"design": 26, "design_failed": 0, "confirm": 4, "total": 30}
-    for name in ("diagnosis.md", "design.h5", "confirm.h5", "diagnosis_residuals.png", "diagnosis_scores.png",
-                 "diagnosis_curves.png"):
+    for name in ("diagnosis.md", "diagnosis_residuals.png", "diagnosis_scores.png", "diagnosis_curves.png"):
         assert (out / name).is_file(), name
+    assert len(list(out.glob("design-*.h5"))) == 1 and len(list(out.glob("confirm-*.h5"))) == 1
     # progress says how many are done and to go, and which engine ran which seed
     assert "diagnose design: 26 of 26 simulations done, 0 to go" in run.stderr
     assert "on analytic_double, seed 700000000" in run.stderr
@@ -73,6 +73,12 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
     assert again.returncode == 0, again.stderr
     assert _completions(out / "runs") == before
     assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "wall_friction"
+
+    # another --fit-on reuses the design and confirms its own recalibration in a store of its own
+    other = calibrax_cli("diagnose", str(campaign), "--budget", "30", "--fit-on", "locus", env=double_env(**NOISE))
+    assert other.returncode == 0, other.stderr
+    assert _completions(out / "runs") == before + 4
+    assert len(list(out.glob("confirm-*.h5"))) == 2
 
     # the campaign's report includes the diagnosis
     report = calibrax_cli("report", str(campaign))

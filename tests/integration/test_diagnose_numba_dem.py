@@ -58,7 +58,8 @@ def diagnosed(tmp_path_factory) -> dict:
     first = diagnose(_calibrated(walled), effects, root / "walled.diagnosis", LocalExecutor(2), budget=BUDGET,
                      executor_factory=lambda: LocalExecutor(2))
     (root / "plain.diagnosis").mkdir()
-    shutil.copy(root / "walled.diagnosis" / "design.h5", root / "plain.diagnosis" / "design.h5")
+    (design,) = (root / "walled.diagnosis").glob("design-*.h5")
+    shutil.copy(design, root / "plain.diagnosis" / design.name)
     second = diagnose(_calibrated(plain), effects, root / "plain.diagnosis", LocalExecutor(2), budget=BUDGET,
                       executor_factory=lambda: LocalExecutor(2))
     return {"walled": first, "plain": second, "root": root}

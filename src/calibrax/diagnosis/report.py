@@ -165,7 +165,8 @@ def _curves(d: Diagnosis, calibrated: Calibrated, out: Path, plt, save) -> list[
         p = store.points()[0]
         return [store.result(p.id, s.index) for s in p.sims if s.status == "done"]
 
-    before, after = results(out / "design.h5"), results(out / "confirm.h5")
+    before = results(out / d.stores.get("design", "design.h5"))
+    after = results(out / d.stores["confirm"]) if "confirm" in d.stores else []
     if not before:
         return []
     steps = [s.target_stress for s in before[0].steps if s.kind == "shear"]

@@ -11,9 +11,11 @@
    before and after is compared on the *other* groups (the τ curves' flow and shape by default),
    which played no part in that fit.
 
-Simulations run through the study machinery into ``out/design.h5`` and ``out/confirm.h5`` (the
-confirmation's point depends only on the design's results), so a killed diagnosis resumes without
-repeating a finished simulation; the outcome is written to ``out/diagnosis.json``.
+Simulations run through the study machinery into ``out/design-<hash>.h5`` and
+``out/confirm-<hash>.h5``, each named by a hash of its simulations (the confirmation's point
+depends only on the design's results), so a killed diagnosis resumes without repeating a finished
+simulation, and one whose inputs changed (a resumed campaign's new answer, another ``--fit-on``)
+starts a store of its own beside the old; the outcome is written to ``out/diagnosis.json``.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, desig
 from calibrax.diagnosis.effects import Effect, EffectParameter
 from calibrax.diagnosis.scoring import (NO_EFFECT, NONE_OF_THEM, CandidateSpace, Design, Emulator, Ranking,
                                         Target, rank, score_model)
-from calibrax.errors import ConfigError, DiagnosisError
+from calibrax.errors import CalibraxError, ConfigError, DiagnosisError
 
 log = logging.getLogger("calibrax")
 
@@ -103,6 +105,7 @@ class Diagnosis:
     wall_time: float
     box: dict[str, tuple[float, float]]
     centre: dict[str, float]
+    stores: dict[str, str] = field(default_factory=dict)
 
     @property
     def verdict(self) -> str:
@@ -133,7 +136,7 @@ class Diagnosis:
                 "after": gap_rows(self.after), "recalibrated": self.recalibrated,
                 "gap_before": gaps.gap_size(self.held_out("before")), "gap_after": gaps.gap_size(self.held_out("after")),
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
-                "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre}
+                "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores}
 
 
 def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
@@ -242,7 +245,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     cases = [_case(calibrated, backend, p, by_name) for p in points]
     log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
              len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
-    outcomes = run_study(cases, out / "design.h5", executor, out / "runs", "diagnose", _progress("design"))
+    design_store = study_store(out, "design", cases)
+    outcomes = run_study(cases, design_store, executor, out / "runs", "diagnose", _progress("design"))
     peak_window = calibrated.spec.procedure.peak_window
     columns = tuple(names_seen)
     unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
@@ -283,12 +287,29 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(failed),
             "confirm": int(confirm_done), "total": int(sum(len(p.seeds) for p in points) + confirm_done)}
+    stores = {"design": design_store.name, **({"confirm": recal.pop("store")} if "store" in recal else {})}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), before, ranking, recal,
                        after, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
-                       dict(calibrated.centre))
+                       dict(calibrated.centre), stores)
     write_json(out / "diagnosis.json", result.to_dict())
     return result
+
+
+def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:
+    """The store of a diagnosis's study: ``kind-<hash of its cases>.h5`` (``kind.h5`` where an
+    earlier version wrote that name for the same cases)."""
+    from calibrax.core.store import CampaignStore
+    from calibrax.core.study import study_hash
+
+    digest = study_hash(cases)
+    legacy = out / f"{kind}.h5"
+    try:
+        if CampaignStore(legacy).check(digest):
+            return legacy
+    except CalibraxError:
+        pass
+    return out / f"{kind}-{digest[:8]}.h5"
 
 
 def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Target:
@@ -323,8 +344,10 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
                         tuple(SEED_BASE + 1000 * seed + 900 + i for i in range(budget.confirm)))
     if budget.confirm < 1:
         return recal, [], 0, 0.0
-    outcomes = run_study([_case(calibrated, backend, point, {effect.name: effect})], out / "confirm.h5", executor,
-                         out / "runs", "confirm", _progress("confirmation"))
+    cases = [_case(calibrated, backend, point, {effect.name: effect})]
+    store = study_store(out, "confirm", cases)
+    recal["store"] = store.name
+    outcomes = run_study(cases, store, executor, out / "runs", "confirm", _progress("confirmation"))
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)
     return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds), engine
