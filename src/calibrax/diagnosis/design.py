@@ -109,6 +109,16 @@ class DesignPoint:
     seeds: tuple[int, ...]
 
 
+def _sobol(dim: int, n: int, seed: int) -> np.ndarray:
+    """The first n points of a scrambled Sobol sequence, shape (n, dim) (n need not be a power of
+    two: a design's budget rarely is, and SciPy's warning about it is noise here)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return qmc.Sobol(dim, scramble=True, seed=seed).random(n)
+
+
 def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0) -> list[DesignPoint]:
     """The diagnosis's design (see the module docstring); every simulation has its own seed."""
     names = box.space.names
@@ -117,12 +127,12 @@ def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0
                           tuple(next(seeds) for _ in range(budget.replicates)))]
     d = len(names)
     if budget.baseline:
-        u = qmc.Sobol(d, scramble=True, seed=seed).random(max(budget.baseline, 1))[:budget.baseline]
+        u = _sobol(d, budget.baseline, seed)
         for k, row in enumerate(box.natural(2.0 * u - 1.0)):
             points.append(DesignPoint(f"baseline {k + 1}", dict(zip(names, map(float, row))), None, {}, (next(seeds),)))
     for j, effect in enumerate(effects):
         k_eff = len(effect.parameters)
-        u = qmc.Sobol(d + k_eff, scramble=True, seed=seed + 1 + j).random(budget.per_effect)
+        u = _sobol(d + k_eff, budget.per_effect, seed + 1 + j)
         cal = box.natural(2.0 * u[:, :d] - 1.0)
         for k in range(budget.per_effect):
             values = {p.name: float(p.off + u[k, d + i] * (p.high - p.off)) for i, p in enumerate(effect.parameters)}
