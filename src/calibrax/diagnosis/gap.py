@@ -141,7 +141,8 @@ def feature_gaps(sims: list[dict[str, float]], experiment: list[dict[str, float]
         experiment: features of each replicate.
         names: the features to compare.
         seed_sd: {feature: one simulation's s.d.} from a larger sample (the design's residuals);
-            the seeds' own s.d. is used for features it lacks.
+            the seeds' own s.d. is used for features it lacks, and where it is larger (a point whose
+            bed jams against a rough wall scatters more than the design's average).
     """
     out = []
     for n in names:
@@ -149,7 +150,9 @@ def feature_gaps(sims: list[dict[str, float]], experiment: list[dict[str, float]
         e = np.array([f[n] for f in experiment if math.isfinite(f.get(n, math.nan))])
         if s.size == 0 or e.size == 0:
             continue
-        sd = (seed_sd or {}).get(n, float(np.std(s, ddof=1)) if s.size > 1 else math.nan)
+        own = float(np.std(s, ddof=1)) if s.size > 1 else math.nan
+        pooled = (seed_sd or {}).get(n, own)
+        sd = max(pooled, own) if math.isfinite(own) and math.isfinite(pooled) else pooled
         out.append(FeatureGap(n, group_of(n), float(e.mean()), float(np.std(e, ddof=1)) if e.size > 1 else math.nan,
                               int(e.size), float(s.mean()), float(sd), int(s.size)))
     return out

@@ -76,9 +76,11 @@ def markdown(d: Diagnosis) -> str:
         r = d.recalibrated
         lines += [f"Recalibrated with **{r['label']}** on the {' and '.join(d.fit_on)} features ({', '.join(r['fitted_on'])}): "
                   + ", ".join(f"{k} = {v:.4g}" for k, v in r["params"].items()) + "; "
-                  + ", ".join(f"{k} = {v:.3g} (posterior mean {r['effect_mean'][k]:.3g}, 95 % interval "
-                              f"{r['effect_interval'][k][0]:.3g} to {r['effect_interval'][k][1]:.3g})"
-                              for k, v in r["effect_values"].items()) + ".", "",
+                  + ", ".join(f"{k} = {v:.3g} (95 % interval {r['effect_interval'][k][0]:.3g} to "
+                              f"{r['effect_interval'][k][1]:.3g})" for k, v in r["effect_values"].items())
+                  + " (the posterior mean; the best fit, "
+                  + ", ".join(f"{k} = {v:.4g}" for k, v in r.get("best_fit", {}).items()) + ", lies on the ridge "
+                  "the fit features leave).", "",
                   f"Judged on the held-out features ({', '.join(d.judge_on)}), with fresh seeds:", "",
                   *_before_after(d), "", shrinkage_text(d)]
     lines += ["", f"z = (simulation − experiment) / √(s_exp²/n_exp + s_sim²/n_sim); |z| > {IMPLAUSIBLE_Z:g} is "

@@ -185,7 +185,8 @@ def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False) -> np.
 class ModelScore:
     """One model's fit: its log evidence and probability, its best point (natural effect values and
     the calibrated parameters on [−1, 1]) with the posterior's mean and 95 % interval of each effect
-    parameter, and the standardised residuals z of every feature at its best point."""
+    parameter (and the calibrated parameters' posterior mean), and the standardised residuals z of
+    every feature at its best point."""
 
     name: str
     label: str
@@ -197,6 +198,8 @@ class ModelScore:
     effect_interval: dict[str, tuple[float, float]]
     z: np.ndarray
     prior_text: tuple[str, ...] = ()
+    #: the posterior mean of the calibrated parameters on [−1, 1], shape (d,)
+    mean_unit: np.ndarray | None = None
 
     @property
     def max_abs_z(self) -> float:
@@ -279,7 +282,7 @@ def score_model(target: Target, emulator: Emulator, candidate: CandidateSpace | 
     name = candidate.name if candidate else NO_EFFECT
     label = candidate.label if candidate else "no effect"
     return ModelScore(name, label, log_z, math.nan, best_unit, best_natural, mean, interval, z_best[0],
-                      candidate.prior_text if candidate else ())
+                      candidate.prior_text if candidate else (), np.sum(w[:, None] * unit, axis=0))
 
 
 def _refine(target: Target, emulator: Emulator, unit: np.ndarray, effects: np.ndarray,
