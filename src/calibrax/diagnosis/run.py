@@ -246,7 +246,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
              len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
     design_store = study_store(out, "design", cases)
-    outcomes = run_study(cases, design_store, executor, out / "runs", "diagnose", _progress("design"))
+    outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
+                         _progress("design"))
     peak_window = calibrated.spec.procedure.peak_window
     columns = tuple(names_seen)
     unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
@@ -352,7 +353,7 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
     cases = [_case(calibrated, backend, point, {effect.name: effect})]
     store = study_store(out, "confirm", cases)
     recal["store"] = store.name
-    outcomes = run_study(cases, store, executor, out / "runs", "confirm", _progress("confirmation"))
+    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", _progress("confirmation"))
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)
     return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds), engine
