@@ -173,10 +173,11 @@ def study_hash(cases: list[StudyCase]) -> str:
 
 
 def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path, kind: str,
-              progress: Callable[[int, int], None] | None = None) -> list[CaseOutcome]:
+              progress: Callable[[int, int], None] | None = None, shutdown: bool = True) -> list[CaseOutcome]:
     """Run every case's seeds through ``executor`` (resuming from ``store_path``), return the outcomes.
     ``progress(finished, total)`` is called once at the start and after every simulation (finished
-    counts those of earlier runs too)."""
+    counts those of earlier runs too). The executor is shut down at the end unless ``shutdown`` is
+    False (a caller that runs a second study on it); on an error it always is."""
     from calibrax import __version__
 
     with CampaignStore(store_path).acquire(study_hash(cases)) as store:
@@ -217,7 +218,8 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
         except BaseException:
             executor.shutdown(cancel=True)
             raise
-        executor.shutdown()
+        if shutdown:
+            executor.shutdown()
         outcomes = []
         for c, p in zip(cases, store.points()):
             results = [store.result(p.id, s.index) if s.status == "done" else None for s in p.sims]

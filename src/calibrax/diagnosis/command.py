@@ -44,12 +44,9 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
     options = dict(cfg_executor[1])
     if workers is not None:
         options["workers"] = workers
-
-    def executor():
-        return get_manager().create("executor", cfg_executor[0], **options)
-
-    result = diagnose(calibrated, candidates, out, executor(), backend=backend, budget=plan, fit_on=fit_groups,
-                      seed=seed, asked=names is not None, capabilities=capabilities, executor_factory=executor)
+    executor = get_manager().create("executor", cfg_executor[0], **options)
+    result = diagnose(calibrated, candidates, out, executor, backend=backend, budget=plan, fit_on=fit_groups,
+                      seed=seed, asked=names is not None, capabilities=capabilities)
     text, files = write_diagnosis_report(result, calibrated, out)
     print(text)
     print("written: " + ", ".join(str(out / f) for f in ["diagnosis.md", "diagnosis.json", *files]))

@@ -207,15 +207,14 @@ def _design_arrays(points: list[DesignPoint], outcomes, box: Box, params: dict[s
 def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor, *, backend: str | None = None,
              budget: Budget | None = None, fit_on: tuple[str, ...] | str = gaps.DEFAULT_FIT, seed: int = 0,
              asked: bool = False,
-             capabilities: frozenset[str] | None = None, executor_factory=None) -> Diagnosis:
+             capabilities: frozenset[str] | None = None) -> Diagnosis:
     """Run (or resume) a diagnosis into ``out`` and return it (see the module docstring).
 
     Args:
         calibrated: the calibrated campaign.
         effects: the candidate effects.
         out: the folder of its stores, summary and figures.
-        executor: runs the design's simulations; ``executor_factory()`` makes a fresh one for the
-            confirmation (an executor is shut down after each study). None: the same is reused.
+        executor: runs the simulations of both studies; shut down at the end.
         backend: the diagnosing simulator (default: the campaign's).
         budget: how many simulations go where (default :class:`Budget`).
         fit_on: the feature groups the recalibration is fitted to (:data:`~calibrax.diagnosis.gap.GROUPS`);
@@ -245,45 +244,47 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     cases = [_case(calibrated, backend, p, by_name) for p in points]
     log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
              len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
-    design_store = study_store(out, "design", cases)
-    outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
-                         _progress("design"))
-    peak_window = calibrated.spec.procedure.peak_window
-    columns = tuple(names_seen)
-    unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
-    experiment = gaps.measured(calibrated.experiment, peak_window)
-    all_names = tuple(n for g in gaps.GROUPS.values() for n in g)
-    names = gaps.usable(all_names, experiment, feats)
-    if len(names) < 2:
-        raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
-                             f"({list(names)}); the diagnosis needs at least two")
-    rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
-    failed = sum(len(o.failures) for o in outcomes)
-    y = np.array([[feats[i][n] for n in names] for i in rows])
-    design = Design(unit[rows], eff[rows], columns, y, names)
-    target = _target(experiment, names)
-    spaces = candidate_spaces(effects, calibrated.experiment)
     try:
-        ranking = rank(target, design, spaces, seed)
-    except ValueError as exc:
-        raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
-    emulator = Emulator.fit(design)
-    seed_sd = dict(zip(names, map(float, emulator.sd)))
-    centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
-    before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
-    judge = [n for n in names if gaps.group_of(n) not in fit_on]
-    recal: dict[str, Any] = {}
-    after: list[gaps.FeatureGap] = []
-    confirm_done, confirm_engine = 0, 0.0
-    top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
-    if not judge:
-        log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
-                 "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
-    elif ranking.verdict != NO_EFFECT and top is not None:
-        recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name], design, target,
-                                                  spaces, fit_on, budget, seed, out,
-                                                  executor_factory() if executor_factory else executor, experiment,
-                                                  seed_sd, names)
+        design_store = study_store(out, "design", cases)
+        outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
+                             _progress("design"), shutdown=False)
+        peak_window = calibrated.spec.procedure.peak_window
+        columns = tuple(names_seen)
+        unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
+        experiment = gaps.measured(calibrated.experiment, peak_window)
+        all_names = tuple(n for g in gaps.GROUPS.values() for n in g)
+        names = gaps.usable(all_names, experiment, feats)
+        if len(names) < 2:
+            raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
+                                 f"({list(names)}); the diagnosis needs at least two")
+        rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
+        failed = sum(len(o.failures) for o in outcomes)
+        y = np.array([[feats[i][n] for n in names] for i in rows])
+        design = Design(unit[rows], eff[rows], columns, y, names)
+        target = _target(experiment, names)
+        spaces = candidate_spaces(effects, calibrated.experiment)
+        try:
+            ranking = rank(target, design, spaces, seed)
+        except ValueError as exc:
+            raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
+        emulator = Emulator.fit(design)
+        seed_sd = dict(zip(names, map(float, emulator.sd)))
+        centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
+        before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
+        judge = [n for n in names if gaps.group_of(n) not in fit_on]
+        recal: dict[str, Any] = {}
+        after: list[gaps.FeatureGap] = []
+        confirm_done, confirm_engine = 0, 0.0
+        top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
+        if not judge:
+            log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
+                     "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
+        elif ranking.verdict != NO_EFFECT and top is not None:
+            recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name], design,
+                                                                      target, spaces, fit_on, budget, seed, out, executor,
+                                                                      experiment, seed_sd, names)
+    finally:
+        executor.shutdown()
     engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + confirm_engine
     sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(failed),
@@ -353,7 +354,8 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
     cases = [_case(calibrated, backend, point, {effect.name: effect})]
     store = study_store(out, "confirm", cases)
     recal["store"] = store.name
-    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", _progress("confirmation"))
+    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", _progress("confirmation"),
+                         shutdown=False)
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)
     return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds), engine
