@@ -232,45 +232,24 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
         capabilities = frozenset(get_manager().create("simulator", backend).capabilities())
     effects, skipped = usable_effects(effects, capabilities, backend, asked)
     budget = budget or Budget()
-    effect_params = {p.name: p for e in effects for p in e.parameters}
     names_seen = [p.name for e in effects for p in e.parameters]
+    effect_params = {p.name: p for e in effects for p in e.parameters}
     if len(set(names_seen)) != len(names_seen):
         raise ConfigError("--effects", f"two candidates add a parameter of the same name: {names_seen}")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     box = Box.around(calibrated.space, calibrated.centre, calibrated.plausible)
     points = design_points(box, effects, budget, seed)
     by_name = {e.name: e for e in effects}
-    cases = [_case(calibrated, backend, p, by_name) for p in points]
+    cases = [_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
              len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
     try:
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
                              _progress("design"), shutdown=False)
-        peak_window = calibrated.spec.procedure.peak_window
-        columns = tuple(names_seen)
-        unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
-        experiment = gaps.measured(calibrated.experiment, peak_window)
-        all_names = tuple(n for g in gaps.GROUPS.values() for n in g)
-        names = gaps.usable(all_names, experiment, feats)
-        if len(names) < 2:
-            raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
-                                 f"({list(names)}); the diagnosis needs at least two")
-        rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
-        failed = sum(len(o.failures) for o in outcomes)
-        y = np.array([[feats[i][n] for n in names] for i in rows])
-        design = Design(unit[rows], eff[rows], columns, y, names)
-        target = _target(experiment, names)
-        spaces = candidate_spaces(effects, calibrated.experiment)
-        try:
-            ranking = rank(target, design, spaces, seed)
-        except ValueError as exc:
-            raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
-        emulator = Emulator.fit(design)
-        seed_sd = dict(zip(names, map(float, emulator.sd)))
-        centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
-        before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
+        scored = _score(calibrated, effects, points, outcomes, box, effect_params, seed)
+        names, ranking = scored.design.names, scored.ranking
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
         recal: dict[str, Any] = {}
         after: list[gaps.FeatureGap] = []
@@ -280,17 +259,17 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
             log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
                      "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
         elif ranking.verdict != NO_EFFECT and top is not None:
-            recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name], design,
-                                                                      target, spaces, fit_on, budget, seed, out, executor,
-                                                                      experiment, seed_sd, names)
+            recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name],
+                                                                      scored, fit_on, budget, seed, out, executor)
     finally:
         executor.shutdown()
     engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + confirm_engine
     sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
-            "design_failed": int(failed),
+            "design_failed": int(scored.failed),
             "confirm": int(confirm_done), "total": int(sum(len(p.seeds) for p in points) + confirm_done)}
     stores = {"design": design_store.name, **({"confirm": recal.pop("store")} if "store" in recal else {})}
-    result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), before, ranking, recal,
+    result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
+                       ranking, recal,
                        after, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
                        dict(calibrated.centre), stores)
@@ -314,16 +293,56 @@ def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:
     return out / f"{kind}-{digest[:8]}.h5"
 
 
+@dataclass
+class _Scored:
+    """The design read and scored: what the recalibration and the summary need."""
+
+    design: Design
+    target: Target
+    spaces: list[CandidateSpace]
+    ranking: Ranking
+    experiment: list[dict[str, float]]
+    seed_sd: dict[str, float]
+    before: list[gaps.FeatureGap]
+    failed: int
+
+
+def _score(calibrated: Calibrated, effects: list[Effect], points: list[DesignPoint], outcomes, box: Box,
+           effect_params: dict[str, EffectParameter], seed: int) -> _Scored:
+    """Read the design's features, rank the candidates, and measure the gap at the calibrated point."""
+    peak_window = calibrated.spec.procedure.peak_window
+    unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
+    experiment = gaps.measured(calibrated.experiment, peak_window)
+    names = gaps.usable(tuple(n for g in gaps.GROUPS.values() for n in g), experiment, feats)
+    if len(names) < 2:
+        raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
+                             f"({list(names)}); the diagnosis needs at least two")
+    rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
+    failed = sum(len(o.failures) for o in outcomes)
+    y = np.array([[feats[i][n] for n in names] for i in rows])
+    design = Design(unit[rows], eff[rows], tuple(effect_params), y, names)
+    target = _target(experiment, names)
+    spaces = candidate_spaces(effects, calibrated.experiment)
+    try:
+        ranking = rank(target, design, spaces, seed)
+    except ValueError as exc:
+        raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
+    seed_sd = dict(zip(names, map(float, Emulator.fit(design).sd)))
+    centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
+    before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
+    return _Scored(design, target, spaces, ranking, experiment, seed_sd, before, failed)
+
+
 def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Target:
     v = np.array([[e[n] for n in names] for e in experiment])
     sd = v.std(axis=0, ddof=1) if v.shape[0] > 1 else np.full(len(names), math.nan)
     return Target(v.mean(axis=0), sd, v.shape[0])
 
 
-def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, design: Design, target: Target,
-                 spaces: list[CandidateSpace], fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor,
-                 experiment: list[dict[str, float]], seed_sd: dict[str, float], names: tuple[str, ...]):
-    """Fit the top effect on one feature group, simulate the fit, and compare on the other group."""
+def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, scored: _Scored,
+                 fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor):
+    """Fit the top effect on the ``fit_on`` groups, simulate the fit, and compare on the others."""
+    design, target, spaces = scored.design, scored.target, scored.spaces
     keep = [j for j, n in enumerate(design.names) if gaps.group_of(n) in fit_on]
     if not keep:
         raise DiagnosisError(f"none of the features is in the groups {list(fit_on)} the recalibration is fitted to "
@@ -358,7 +377,7 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
                          shutdown=False)
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)
-    return recal, gaps.feature_gaps(sims, experiment, names, seed_sd), len(point.seeds), engine
+    return recal, gaps.feature_gaps(sims, scored.experiment, design.names, scored.seed_sd), len(point.seeds), engine
 
 
 def write_json(path: Path, data: dict[str, Any]) -> None:
