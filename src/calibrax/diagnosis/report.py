@@ -56,7 +56,8 @@ def markdown(d: Diagnosis) -> str:
              f"{d.simulations['design_failed']} of them failed; {d.simulations['confirm']} to confirm), "
              f"{d.simulations.get('engine_seconds', 0) / 60:.0f} min of engine time in all, "
              f"{d.wall_time / 60:.1f} min of wall time in this run.", "",
-             "## 1. Where the gap lies (calibrated point, replicate seeds)", "", *_gap_table(d.before, d.judge_on), "",
+             "## 1. Where the gap lies (calibrated point, replicate seeds)", "", *_metric_line(d),
+             *_gap_table(d.before, d.judge_on), "",
              "## 2. Which effect", "",
              "| model | probability | log evidence | effect at best fit | 95 % interval | max |z| at best fit | prior |",
              "|---|---|---|---|---|---|---|"]
@@ -87,6 +88,18 @@ def markdown(d: Diagnosis) -> str:
               "implausible. s_sim is one simulation's seed s.d. from the design's residuals; s_exp is the "
               "replicates' s.d., never below s_sim."]
     return "\n".join(lines) + "\n"
+
+
+def _metric_line(d: Diagnosis) -> list[str]:
+    """The campaign metric's own verdict at its answer, beside the features' (they may differ: a
+    metric on a few pooled features with a wide threshold can pass what single features do not)."""
+    g = d.metric_gap
+    if not g or not all(math.isfinite(g.get(k, math.nan)) for k in ("predicted", "threshold")):
+        return []
+    within = "within" if g["predicted"] <= g["threshold"] else "beyond"
+    return [f"The campaign's metric put its answer at d = {g['predicted']:.3g} ± {g.get('predicted_sd', math.nan):.2g}, "
+            f"{within} its noise threshold {g['threshold']:.3g}. Feature by feature (* held out of the "
+            f"recalibration):", ""]
 
 
 def _gap_table(rows: list[FeatureGap], judge: list[str]) -> list[str]:

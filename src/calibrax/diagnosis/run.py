@@ -56,6 +56,8 @@ class Calibrated:
         experiment: the measured (or pseudo-) experiment.
         centre: the campaign's recommendation, natural units.
         plausible: {name: (low, high)} of its plausible region (empty: none known).
+        metric_gap: the campaign's own verdict at its answer, {``predicted``: d, ``predicted_sd``,
+            ``threshold``: the metric's noise threshold} (empty: not known).
     """
 
     simulator: str
@@ -64,6 +66,7 @@ class Calibrated:
     experiment: Experiment
     centre: dict[str, float]
     plausible: dict[str, tuple[float, float]] = field(default_factory=dict)
+    metric_gap: dict[str, float] = field(default_factory=dict)
 
     @classmethod
     def from_store(cls, path: Path) -> "Calibrated":
@@ -83,8 +86,9 @@ class Calibrated:
                                  "run it (calibrax run) until it reports an answer, then diagnose it")
         space = ParameterSpace.from_config(cfg["parameters"])
         plausible = {k: tuple(v) for k, v in answer.ranges.items()}
+        gap = {"predicted": answer.predicted, "predicted_sd": answer.predicted_sd, "threshold": answer.threshold}
         return cls(cfg["simulator"], ShearCellSpec.from_dict(cfg["cell"]), space, experiment, dict(answer.params),
-                   plausible)
+                   plausible, gap)
 
 
 @dataclass
@@ -106,6 +110,7 @@ class Diagnosis:
     box: dict[str, tuple[float, float]]
     centre: dict[str, float]
     stores: dict[str, str] = field(default_factory=dict)
+    metric_gap: dict[str, float] = field(default_factory=dict)
 
     @property
     def verdict(self) -> str:
@@ -136,7 +141,8 @@ class Diagnosis:
                 "after": gap_rows(self.after), "recalibrated": self.recalibrated,
                 "gap_before": gaps.gap_size(self.held_out("before")), "gap_after": gaps.gap_size(self.held_out("after")),
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
-                "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores}
+                "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores,
+                "metric_gap": self.metric_gap}
 
 
 def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
@@ -272,7 +278,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
                        ranking, recal,
                        after, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
-                       dict(calibrated.centre), stores)
+                       dict(calibrated.centre), stores, dict(calibrated.metric_gap))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
 
