@@ -15,7 +15,6 @@ import tempfile
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
 import yaml
 
 from calibrax.core.campaign import EXPERIMENT_SEED_BASE

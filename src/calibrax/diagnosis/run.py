@@ -38,7 +38,7 @@ from calibrax.core.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points
 from calibrax.diagnosis.effects import Effect, EffectParameter
-from calibrax.diagnosis.scoring import (NO_EFFECT, NONE_OF_THEM, CandidateSpace, Design, Emulator, Ranking,
+from calibrax.diagnosis.scoring import (NO_EFFECT, CandidateSpace, Design, Emulator, Ranking,
                                         Target, rank, score_model)
 from calibrax.errors import CalibraxError, ConfigError, DiagnosisError
 
