@@ -330,10 +330,11 @@ def _score(calibrated: Calibrated, effects: list[Effect], points: list[DesignPoi
     target = _target(experiment, names)
     spaces = candidate_spaces(effects, calibrated.experiment)
     try:
-        ranking = rank(target, design, spaces, seed)
+        emulator = Emulator.fit(design)
     except ValueError as exc:
         raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
-    seed_sd = dict(zip(names, map(float, Emulator.fit(design).sd)))
+    ranking = rank(target, design, spaces, seed, emulator)
+    seed_sd = dict(zip(names, map(float, emulator.sd)))
     centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
     before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
     return _Scored(design, target, spaces, ranking, experiment, seed_sd, before, failed)

@@ -299,8 +299,9 @@ def _refine(target: Target, emulator: Emulator, unit: np.ndarray, effects: np.nd
         eff[cols] = x[unit.size:]
         return -float(log_likelihood(target, emulator, x[None, :unit.size], eff[None])[0][0])
 
+    negative_x0 = negative(x0)
     res = minimize(negative, x0, bounds=bounds, method="L-BFGS-B")
-    x = res.x if res.success and res.fun <= negative(x0) else x0
+    x = res.x if res.success and res.fun <= negative_x0 else x0
     eff = effects.copy()
     eff[cols] = x[unit.size:]
     return x[:unit.size], eff
@@ -312,9 +313,11 @@ def _weighted_quantile(v: np.ndarray, w: np.ndarray, q: float) -> float:
     return float(v[order][min(np.searchsorted(cdf, q), v.size - 1)])
 
 
-def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed: int = 0) -> Ranking:
-    """Score "no effect" and every candidate on the same emulator and give the verdict."""
-    emulator = Emulator.fit(design)
+def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed: int = 0,
+         emulator: Emulator | None = None) -> Ranking:
+    """Score "no effect" and every candidate on the same emulator (``Emulator.fit(design)`` unless
+    the caller has fitted it already) and give the verdict."""
+    emulator = emulator or Emulator.fit(design)
     models = [score_model(target, emulator, None, seed)] + [score_model(target, emulator, c, seed) for c in candidates]
     log_z = np.array([m.log_evidence for m in models])
     prob = np.exp(log_z - logsumexp(log_z))
