@@ -111,6 +111,8 @@ class Diagnosis:
     centre: dict[str, float]
     stores: dict[str, str] = field(default_factory=dict)
     metric_gap: dict[str, float] = field(default_factory=dict)
+    #: one simulation's seed s.d. per feature (the design emulator's residuals)
+    seed_sd: dict[str, float] = field(default_factory=dict)
 
     @property
     def verdict(self) -> str:
@@ -142,7 +144,7 @@ class Diagnosis:
                 "gap_before": gaps.gap_size(self.held_out("before")), "gap_after": gaps.gap_size(self.held_out("after")),
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
                 "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores,
-                "metric_gap": self.metric_gap}
+                "metric_gap": self.metric_gap, "seed_sd": self.seed_sd}
 
 
 def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
@@ -191,17 +193,18 @@ def _progress(stage: str):
     return report
 
 
-def _design_arrays(points: list[DesignPoint], outcomes, box: Box, params: dict[str, EffectParameter],
-                   peak_window: float) -> tuple[np.ndarray, np.ndarray, list[dict[str, float]], list[int]]:
-    """Per finished simulation: the calibrated parameters on [−1, 1] over the box, shape (n, d), every
-    effect parameter as a fraction of its range (0: off), shape (n, K) in the order of ``params``,
-    its features, and the index of its design point."""
+def _design_arrays(points: list[DesignPoint], features: list[list[dict[str, float]]], box: Box,
+                   params: dict[str, EffectParameter]) -> tuple[np.ndarray, np.ndarray, list[dict[str, float]], list[int]]:
+    """Per simulated test (``features[i]``: those of design point i's seeds): the calibrated
+    parameters on [−1, 1] over the box, shape (n, d), every effect parameter as a fraction of its
+    range (0: off), shape (n, K) in the order of ``params``, its features, and the index of its
+    design point."""
     columns = list(params)
     unit, eff, feats, which = [], [], [], []
-    for i, (pt, out) in enumerate(zip(points, outcomes)):
+    for i, (pt, point_features) in enumerate(zip(points, features)):
         scaled = box.scaled(np.array([[pt.params[n] for n in box.space.names]]))[0]
         fractions = [float(params[c].scaled(pt.effect_values[c])) if c in pt.effect_values else 0.0 for c in columns]
-        for f in gaps.simulated(out.good, peak_window):
+        for f in point_features:
             unit.append(scaled)
             eff.append(fractions)
             feats.append(f)
@@ -254,7 +257,11 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
                              _progress("design"), shutdown=False)
-        scored = _score(calibrated, effects, points, outcomes, box, effect_params, seed)
+        peak_window = calibrated.spec.procedure.peak_window
+        scored = score_design(gaps.measured(calibrated.experiment, peak_window),
+                              candidate_spaces(effects, calibrated.experiment), points,
+                              [gaps.simulated(o.good, peak_window) for o in outcomes],
+                              sum(len(o.failures) for o in outcomes), box, effect_params, seed)
         names, ranking = scored.design.names, scored.ranking
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
         recal: dict[str, Any] = {}
@@ -278,7 +285,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
                        ranking, recal,
                        after, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
-                       dict(calibrated.centre), stores, dict(calibrated.metric_gap))
+                       dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
 
@@ -313,22 +320,21 @@ class _Scored:
     failed: int
 
 
-def _score(calibrated: Calibrated, effects: list[Effect], points: list[DesignPoint], outcomes, box: Box,
-           effect_params: dict[str, EffectParameter], seed: int) -> _Scored:
-    """Read the design's features, rank the candidates, and measure the gap at the calibrated point."""
-    peak_window = calibrated.spec.procedure.peak_window
-    unit, eff, feats, which = _design_arrays(points, outcomes, box, effect_params, peak_window)
-    experiment = gaps.measured(calibrated.experiment, peak_window)
+def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace], points: list[DesignPoint],
+                 features: list[list[dict[str, float]]], failed: int, box: Box,
+                 effect_params: dict[str, EffectParameter], seed: int) -> _Scored:
+    """Rank the candidates on the design's features and measure the gap at the calibrated point
+    (design point 0). Numbers only: ``experiment`` holds each replicate's diagnosis features,
+    ``features[i]`` those of design point i's finished simulations, ``failed`` counts the rest."""
+    unit, eff, feats, which = _design_arrays(points, features, box, effect_params)
     names = gaps.usable(tuple(n for g in gaps.GROUPS.values() for n in g), experiment, feats)
     if len(names) < 2:
         raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
                              f"({list(names)}); the diagnosis needs at least two")
     rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
-    failed = sum(len(o.failures) for o in outcomes)
     y = np.array([[feats[i][n] for n in names] for i in rows])
     design = Design(unit[rows], eff[rows], tuple(effect_params), y, names)
     target = _target(experiment, names)
-    spaces = candidate_spaces(effects, calibrated.experiment)
     try:
         emulator = Emulator.fit(design)
     except ValueError as exc:
@@ -346,9 +352,10 @@ def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Targe
     return Target(v.mean(axis=0), sd, v.shape[0])
 
 
-def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, scored: _Scored,
-                 fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor):
-    """Fit the top effect on the ``fit_on`` groups, simulate the fit, and compare on the others."""
+def recalibration(box: Box, effect: Effect, scored: _Scored, fit_on: tuple[str, ...], budget: Budget,
+                  seed: int) -> tuple[dict[str, Any], DesignPoint]:
+    """Fit the top effect on the ``fit_on`` groups: the recalibration's record and the point (with
+    its confirmation seeds) that simulates it."""
     design, target, spaces = scored.design, scored.target, scored.spaces
     keep = [j for j, n in enumerate(design.names) if gaps.group_of(n) in fit_on]
     if not keep:
@@ -375,6 +382,13 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
                        for k, v in values.items()))
     point = DesignPoint("recalibrated", params, effect.name, values,
                         tuple(SEED_BASE + 1000 * seed + 900 + i for i in range(budget.confirm)))
+    return recal, point
+
+
+def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, scored: _Scored,
+                 fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor):
+    """Fit the top effect on the ``fit_on`` groups, simulate the fit, and compare on the others."""
+    recal, point = recalibration(box, effect, scored, fit_on, budget, seed)
     if budget.confirm < 1:
         return recal, [], 0, 0.0
     cases = [_case(calibrated, backend, point, {effect.name: effect})]
@@ -384,7 +398,7 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
                          shutdown=False)
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)
-    return recal, gaps.feature_gaps(sims, scored.experiment, design.names, scored.seed_sd), len(point.seeds), engine
+    return recal, gaps.feature_gaps(sims, scored.experiment, scored.design.names, scored.seed_sd), len(point.seeds), engine
 
 
 def write_json(path: Path, data: dict[str, Any]) -> None:
