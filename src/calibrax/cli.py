@@ -23,6 +23,7 @@ examples:
   calibrax export runs/quickstart.h5               trials as CSV (runs/quickstart-trials.csv)
   calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
   calibrax diagnose runs/quickstart.h5             where the sim-to-real gap lies and which effect causes it
+  calibrax diagnose-benchmark                      score the diagnosis blind on cases with a withheld effect
   calibrax plugins                                 registered simulators, metrics, acquisitions…
 """
 
@@ -128,6 +129,40 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--seed", type=int, default=0, help="the design's seed (default 0)")
     diag.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.diagnosis/)")
     diag.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
+
+    bench = sub.add_parser("diagnose-benchmark", help="score the diagnosis blind, on cases whose effect is withheld",
+                           description="Make cases with one hidden effect (small, medium, large), controls with "
+                                       "none and cases with an effect outside the candidate list, diagnose each from "
+                                       "its data alone, and score the answers against a labels file the diagnosis "
+                                       "never reads: top-1 and top-2 accuracy, the confusion matrix, false alarms, "
+                                       "unlisted effects rejected, the recovered magnitude's error and the held-out "
+                                       "shrinkage against the oracle's. Writes DIR/scores.md, scores.json, "
+                                       "confusion.png, answers.json and labels.yaml. README, 'The blind benchmark'.")
+    bench.add_argument("--level", default="emulator", choices=["emulator", "dem"],
+                       help="emulator: a response surface of the shipped DEM design stands in for the simulator "
+                            "(minutes); dem: cases made and diagnosed with real simulations, resumable (hours). "
+                            "Default: emulator")
+    bench.add_argument("--model", type=Path, metavar="FILE",
+                       help="the calibrated model every case is diagnosed against (default: the shipped tiny "
+                            "numba_dem model, calibrax/diagnosis/benchmark/data/tiny.yaml)")
+    bench.add_argument("--design", type=Path, metavar="FILE",
+                       help="emulator level: the DEM design's data (default: the shipped design-tiny.json)")
+    bench.add_argument("--per-class", type=int, metavar="N",
+                       help="cases per class, per magnitude for a listed effect (default: 10 emulator, 3 dem)")
+    bench.add_argument("--also", action="append", metavar="BACKEND:CLASSES",
+                       help="dem level: make these classes on another truth backend too (repeatable; default "
+                            "liggghts:wall_friction; off: the model's backend only)")
+    bench.add_argument("--cases", type=Path, metavar="DIR",
+                       help="score an external folder of experiment files (CASE.yaml with its CSVs) instead of "
+                            "making cases; needs --labels")
+    bench.add_argument("--labels", type=Path, metavar="FILE",
+                       help="the labels of --cases (YAML: cases: [{case, class, expected, effects, params}])")
+    bench.add_argument("--answers", type=Path, metavar="FILE",
+                       help="score these answers (an answers.json of an earlier run) against --labels; runs nothing")
+    bench.add_argument("--seed", type=int, default=0, help="cases' and measurement noise's seed (default 0)")
+    bench.add_argument("--workers", type=int, metavar="N", help="dem level: simulations at once (default 1)")
+    bench.add_argument("-o", "--output", type=Path, metavar="DIR",
+                       help="output folder (default: runs/diagnose-benchmark-LEVEL/)")
 
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
                             description="Write index.html, summary.md and PNG/SVG figures into one folder (the page shows the "
@@ -364,6 +399,14 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                         fit_on=args.fit_on, seed=args.seed, output=args.output, workers=args.workers)
 
 
+def _cmd_diagnose_benchmark(args: argparse.Namespace) -> int:
+    from calibrax.diagnosis.benchmark.command import run_benchmark
+
+    return run_benchmark(level=args.level, model=args.model, design=args.design, per_class=args.per_class,
+                         cases=args.cases, labels=args.labels, answers=args.answers, also=args.also, seed=args.seed,
+                         workers=args.workers, output=args.output)
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from calibrax.plugins.manager import HOOKS, get_manager
 
@@ -406,7 +449,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _raise_interrupt)
     handlers = {"run": _cmd_run, "status": _cmd_status, "export": _cmd_export, "report": _cmd_report,
                 "crosscheck": _cmd_crosscheck,
-                "converge": _cmd_converge, "diagnose": _cmd_diagnose, "plugins": _cmd_plugins}
+                "converge": _cmd_converge, "diagnose": _cmd_diagnose,
+                "diagnose-benchmark": _cmd_diagnose_benchmark, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)
     except CalibraxError as exc:

@@ -1,0 +1,200 @@
+"""Benchmark cases: what each hidden truth is, the labels file that records it, and the blinded
+experiment files a diagnosis sees.
+
+**Classes.** A case is one of:
+
+* a *listed* effect (one of the model's candidates) at a small, medium or large magnitude
+  (:data:`MAGNITUDES`, natural units);
+* ``none``: a control with no effect;
+* ``unlisted``: an effect outside the candidate list: a different rolling friction (the sphere
+  model's stand-in for particle shape, :class:`RollingFriction`) or two listed effects at once
+  (:data:`TWO_EFFECTS`). The right answer to both is "none of the candidates".
+
+**Labels file** (YAML, never read by a diagnosis)::
+
+    cases:
+      - {case: c07, class: wall_friction, magnitude: medium, truth_backend: liggghts,
+         params: {youngs_modulus: 2.0e10, sliding_friction: 0.35},
+         effects: {wall_friction: 0.25}, expected: wall_friction}
+
+``expected`` is the answer a perfect diagnosis gives: the effect's name, ``none``, or
+``none of the candidates``; ``effects`` are the hidden values that made the case (empty for a
+control). An external folder's labels need only ``case``, ``class`` and ``expected`` (and
+``effects`` for the magnitude error).
+
+**Blinded files.** Each case is an ordinary experiment (header YAML, points CSV, curves CSV; see
+:mod:`calibrax.core.experiment`) named by its opaque id. Its header names the cell it was
+measured in (preset and base) and says it is made data, but not the backend, the material or any
+effect; what made it is in the labels file only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from calibrax.diagnosis.effects import EffectParameter, UniformPrior
+from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
+from calibrax.errors import ConfigError
+
+#: the hidden magnitudes of each builtin effect, natural units (wall friction coefficient, σ of
+#: ln r, SJKR energy density J/m³): small is where a tiny cell's seed noise hides it, large the
+#: top of the range the diagnosis explores
+MAGNITUDES: dict[str, dict[str, float]] = {
+    "wall_friction": {"small": 0.1, "medium": 0.25, "large": 0.45},
+    "sigma_log": {"small": 0.1, "medium": 0.25, "large": 0.4},
+    "cohesion_energy_density": {"small": 0.75e7, "medium": 1.5e7, "large": 3.0e7},
+}
+#: the unlisted cases' hidden truths: rolling friction 0.15 (against the model's 0.5), and wall
+#: friction with a size distribution at once
+ROLLING_FRICTION_TRUTH = 0.15
+TWO_EFFECTS = {"wall_friction": 0.2, "sigma_log": 0.3}
+CLASS_NONE = "none"
+CLASS_UNLISTED = "unlisted"
+
+
+class RollingFriction:
+    """Not a candidate: the benchmark's unlisted effect. A different rolling friction μr, the sphere
+    model's stand-in for particle shape, from the model's value (``off``) down to 0.1."""
+
+    name = "rolling_friction"
+    label = "rolling friction (shape)"
+    capability = "rolling_friction"
+
+    def __init__(self, off: float = 0.5, high: float = 0.1) -> None:
+        # ``high`` is the far end of the explored range from ``off``; here it lies below it
+        self.parameters = (EffectParameter("rolling_friction", "material.rolling_friction", min(off, high), high,
+                                           off=off),)
+
+    def prior(self, experiment: Any) -> dict[str, UniformPrior]:
+        p = self.parameters[0]
+        return {p.name: UniformPrior(min(p.off, p.high), max(p.off, p.high))}
+
+    def apply(self, spec, values: dict[str, float]):
+        return spec.replace(material={"rolling_friction": float(values["rolling_friction"])})
+
+
+@dataclass(frozen=True)
+class CaseLabel:
+    """One case's truth (see the module docstring)."""
+
+    case: str
+    klass: str
+    expected: str
+    magnitude: str = ""
+    truth_backend: str = ""
+    params: dict[str, float] = field(default_factory=dict)
+    effects: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: v for k, v in asdict(self).items() if v not in ("", {}) and k != "klass"}
+        return {"case": self.case, "class": self.klass, **{k: v for k, v in d.items() if k != "case"}}
+
+
+def write_labels(labels: list[CaseLabel], path: Path) -> None:
+    path.write_text("# What made each benchmark case; a diagnosis never reads this file.\n"
+                    + yaml.safe_dump({"cases": [lab.to_dict() for lab in labels]}, sort_keys=False, allow_unicode=True))
+
+
+def read_labels(path: Path) -> list[CaseLabel]:
+    """A labels file, checked: every entry has ``case``, ``class`` and ``expected``; errors name the
+    file and the entry."""
+    from calibrax.core.yamlfile import read_yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("--labels", f"{path}: no such labels file")
+    raw = read_yaml(path)
+    entries = raw.get("cases") if isinstance(raw, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise ConfigError(str(path), "must be a mapping with a non-empty list `cases:` (see calibrax.diagnosis.benchmark.cases)")
+    out, seen = [], set()
+    for i, e in enumerate(entries):
+        where = f"{path}: cases[{i}]"
+        if not isinstance(e, dict) or not all(isinstance(e.get(k), str) and e.get(k) for k in ("case", "class", "expected")):
+            raise ConfigError(where, "needs `case`, `class` and `expected` (text)")
+        if e["case"] in seen:
+            raise ConfigError(where, f"case {e['case']!r} appears twice")
+        seen.add(e["case"])
+        numbers = {}
+        for key in ("params", "effects"):
+            v = e.get(key) or {}
+            if not isinstance(v, dict) or not all(isinstance(x, (int, float)) for x in v.values()):
+                raise ConfigError(f"{where}.{key}", "a mapping of names to numbers")
+            numbers[key] = {k: float(x) for k, x in v.items()}
+        out.append(CaseLabel(e["case"], e["class"], e["expected"], str(e.get("magnitude", "")),
+                             str(e.get("truth_backend", "")), numbers["params"], numbers["effects"]))
+    return out
+
+
+def expected_answer(klass: str) -> str:
+    return {CLASS_NONE: NO_EFFECT, CLASS_UNLISTED: NONE_OF_THEM}.get(klass, klass)
+
+
+def opaque_ids(n: int, seed: int) -> list[str]:
+    """``n`` case ids in a shuffled order (the order of a folder tells nothing of the classes)."""
+    order = np.random.default_rng(seed).permutation(n)
+    return [f"case-{int(k) + 1:03d}" for k in order]
+
+
+@dataclass(frozen=True)
+class MeasurementNoise:
+    """Relative s.d. of an FT4 repeat on top of the seed noise, independent per replicate and step:
+    τ (a step's peak and curve together, and each preshear τ) 2 %, measured σ 1 %, bulk density
+    0.5 % (FT4 repeatability figures are of this order)."""
+
+    tau: float = 0.02
+    sigma: float = 0.01
+    density: float = 0.005
+
+
+def write_blinded(results: list, out: Path, cell_words: dict[str, Any], noise: MeasurementNoise | None,
+                  rng: np.random.Generator) -> Path:
+    """Write replicate results as an ordinary experiment under ``out``'s stem, with measurement
+    noise on top and a header that names the cell but nothing that made the data."""
+    points, curves = [], []
+    for r, result in enumerate(results):
+        shear = [s for s in result.steps if s.kind == "shear"]
+        density = float(result.bulk_density[0]) * _factor(rng, noise.density if noise else 0.0)
+        for k, step in enumerate(shear):
+            f_tau = _factor(rng, noise.tau if noise else 0.0)
+            f_pre = _factor(rng, noise.tau if noise else 0.0)
+            f_sig = _factor(rng, noise.sigma if noise else 0.0)
+            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k] * f_tau:.6g},{r + 1},"
+                          f"{result.peak_normal_stress[k] * f_sig:.6g},{result.preshear_normal_stress[k] * f_sig:.6g},"
+                          f"{result.preshear_shear_stress[k] * f_pre:.6g},{density:.6g}")
+            for rot, tau in zip(step.rotation, step.shear_stress):
+                curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau * f_tau:.6g}")
+    words = ("MADE DATA FOR A BLIND BENCHMARK, NOT MEASURED. What made it is in the benchmark's labels file, "
+             "which the diagnosis does not read.")
+    comment = f"# {words}\n"
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    (out.parent / f"{out.name}-points.csv").write_text(
+        comment + "normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,"
+        "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3\n" + "\n".join(points) + "\n")
+    (out.parent / f"{out.name}-curves.csv").write_text(
+        comment + "replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n" + "\n".join(curves) + "\n")
+    header = {"name": out.name, "source": words, "points": f"{out.name}-points.csv", "curves": f"{out.name}-curves.csv",
+              "preshear_stress_pa": float(cell_words.get("preshear_stress_pa", math.nan)),
+              "cell": {k: v for k, v in cell_words.items() if k != "preshear_stress_pa"}}
+    path = out.parent / f"{out.name}.yaml"
+    path.write_text(comment + yaml.safe_dump(header, sort_keys=False, allow_unicode=True))
+    return path
+
+
+def _factor(rng: np.random.Generator, sd: float) -> float:
+    return float(1.0 + sd * rng.standard_normal()) if sd > 0 else 1.0
+
+
+def cell_words(spec) -> dict[str, Any]:
+    """What a blinded header says of the cell: its preset, base and preshear σ (not its walls'
+    friction: that is one of the answers)."""
+    g = spec.geometry
+    return {"preset": spec.name, "base_ribs": int(g.base_ribs), "rib_height": float(g.rib_height),
+            "preshear_stress_pa": float(spec.procedure.preshear_stress)}

@@ -1,0 +1,235 @@
+"""The emulator level: many cases in minutes, with a response surface of a real DEM design
+standing in for the simulator.
+
+**The truth emulator.** Each diagnosis feature is fitted by least squares to the shipped design
+(``data/design-tiny.json``, made by :func:`export_design`; see its ``about``) on a basis richer
+than the diagnosis's own emulator: ``[1, u, u_i u_j, g_k, g_k², g_k u_i]`` with u the calibrated
+parameters on [−1, 1] over the model's box and g_k each effect parameter as a fraction of its
+range, rolling friction (the unlisted effect) included. A simulated test is its mean plus a draw
+of the residuals' covariance (the design's seed noise and lack of fit). Two effects at once add
+their terms: an assumption the DEM level does not make.
+
+**A case** is three replicates drawn at the truth (parameters inside the box, hidden effects)
+with :class:`MeasurementNoise` on top, as relative noise per feature. **Its diagnosis** is
+:func:`calibrax.diagnosis.run.score_design` and :func:`~calibrax.diagnosis.run.recalibration` on
+a design drawn afresh from the truth emulator at the model's design points, the same code that
+scores a DEM design; the confirmation and the oracle are draws too.
+
+What this level cannot show: effects the design did not vary, a truth backend other than the
+design's, and the diagnosis's own emulator being wrong in ways the truth emulator is not.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibrax.diagnosis import gap as gaps
+from calibrax.diagnosis.benchmark.cases import (CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, ROLLING_FRICTION_TRUTH,
+                                                TWO_EFFECTS, CaseLabel, MeasurementNoise, RollingFriction,
+                                                expected_answer, opaque_ids)
+from calibrax.diagnosis.benchmark.model import BenchmarkModel
+from calibrax.diagnosis.benchmark.scores import Answer
+from calibrax.diagnosis.effects import EffectParameter
+from calibrax.diagnosis.scoring import NO_EFFECT
+from calibrax.errors import ConfigError
+
+DEFAULT_DESIGN = Path(__file__).parent / "data" / "design-tiny.json"
+#: the diagnosis features the emulator predicts
+FEATURES = tuple(n for g in gaps.GROUPS.values() for n in g)
+#: truths are drawn inside this fraction of the box (the design's edges are extrapolation's)
+TRUTH_SPAN = 0.7
+
+
+def effect_parameters(model: BenchmarkModel) -> dict[str, EffectParameter]:
+    """Every effect parameter the design varies, candidates and the unlisted rolling friction."""
+    out = {e.parameters[0].name: e.parameters[0] for e in model.effects_all()}
+    rf = RollingFriction(off=model.spec.material.rolling_friction)
+    out[rf.parameters[0].name] = rf.parameters[0]
+    return out
+
+
+def _basis(u: np.ndarray, g: np.ndarray) -> np.ndarray:
+    n, d = u.shape
+    cols = [np.ones((n, 1)), u, np.column_stack([u[:, i] * u[:, j] for i in range(d) for j in range(i, d)]), g, g ** 2]
+    cols += [g[:, [k]] * u for k in range(g.shape[1])]
+    return np.hstack(cols)
+
+
+@dataclass
+class TruthEmulator:
+    """The response surface of the design (see the module docstring)."""
+
+    model: BenchmarkModel
+    columns: tuple[str, ...]
+    params: dict[str, EffectParameter]
+    coef: np.ndarray          # (p, F)
+    cov: np.ndarray           # (F, F) one simulation's residual covariance
+    n_rows: int
+
+    @classmethod
+    def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]]) -> "TruthEmulator":
+        params = effect_parameters(model)
+        columns = tuple(params)
+        u, g = cls._inputs(model, params, columns, [r["params"] for r in rows], [r["effects"] for r in rows])
+        phi = _basis(u, g)
+        y = np.array([[r["features"].get(n, math.nan) for n in FEATURES] for r in rows], dtype=float)
+        coef = np.zeros((phi.shape[1], len(FEATURES)))
+        for j in range(len(FEATURES)):
+            ok = np.isfinite(y[:, j])
+            coef[:, j] = np.linalg.lstsq(phi[ok], y[ok, j], rcond=None)[0]
+        full = np.all(np.isfinite(y), axis=1)
+        resid = y[full] - phi[full] @ coef
+        dof = max(int(full.sum()) - np.linalg.matrix_rank(phi[full]), 1)
+        cov = resid.T @ resid / dof
+        return cls(model, columns, params, coef, cov, len(rows))
+
+    @staticmethod
+    def _inputs(model, params, columns, natural: list[dict[str, float]], effects: list[dict[str, float]]):
+        box = model.box()
+        u = box.scaled(np.array([[p[n] for n in box.space.names] for p in natural]))
+        g = np.array([[float(params[c].scaled(e[c])) if c in e else 0.0 for c in columns] for e in effects], dtype=float)
+        return u, g.reshape(len(effects), len(columns))
+
+    def mean(self, params: dict[str, float], effects: dict[str, float]) -> np.ndarray:
+        u, g = self._inputs(self.model, self.params, self.columns, [params], [effects])
+        return (_basis(u, g) @ self.coef)[0]
+
+    def draw(self, params: dict[str, float], effects: dict[str, float], n: int,
+             rng: np.random.Generator) -> list[dict[str, float]]:
+        """``n`` simulated tests' features at a point."""
+        values = rng.multivariate_normal(self.mean(params, effects), self.cov, size=n, method="eigh")
+        return [dict(zip(FEATURES, map(float, v))) for v in values]
+
+
+def load_design(path: Path | None = None) -> dict[str, Any]:
+    path = Path(path) if path is not None else DEFAULT_DESIGN
+    try:
+        data = json.loads(path.read_text())
+        data["rows"][0]["features"]
+    except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
+        raise ConfigError("--design", f"{path}: not a design file written by export_design ({exc})") from None
+    return data
+
+
+def measurement_noise(features: dict[str, float], noise: MeasurementNoise, rng: np.random.Generator) -> dict[str, float]:
+    """Relative measurement noise per feature: τ/σ ratios carry τ's and σ's, curve shapes τ's,
+    the density its own."""
+    ratio = math.hypot(noise.tau, noise.sigma)
+    out = {}
+    for n, v in features.items():
+        sd = noise.density if n == "bulk_density" else (noise.tau if n in ("initial_slope", "peak_prominence") else ratio)
+        out[n] = v * (1.0 + sd * rng.standard_normal())
+    return out
+
+
+def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[CaseLabel]:
+    """``per_class`` cases of every magnitude of every listed effect, and ``per_class`` × 3 of no
+    effect and of unlisted effects (rolling friction and two effects, half each), at truth
+    parameters drawn inside the box."""
+    rng = np.random.default_rng([seed, 2])
+    box = model.box()
+    rows = []
+
+    def params() -> dict[str, float]:
+        nat = box.natural(rng.uniform(-TRUTH_SPAN, TRUTH_SPAN, size=(1, box.space.dim)))[0]
+        return dict(zip(box.space.names, map(float, nat)))
+
+    for e in model.effects():
+        pname = e.parameters[0].name
+        if pname not in MAGNITUDES:
+            continue
+        for level, value in MAGNITUDES[pname].items():
+            rows += [(e.name, level, params(), {pname: value}) for _ in range(per_class)]
+    rows += [(CLASS_NONE, "", params(), {}) for _ in range(3 * per_class)]
+    for k in range(3 * per_class):
+        rows.append((CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH})
+                    if k % 2 == 0 else (CLASS_UNLISTED, "two effects", params(), dict(TWO_EFFECTS)))
+    ids = opaque_ids(len(rows), seed)
+    return sorted((CaseLabel(i, k, expected_answer(k), lvl, "emulator", p, eff) for i, (k, lvl, p, eff) in zip(ids, rows)),
+                  key=lambda c: c.case)
+
+
+def make_case(truth: TruthEmulator, label: CaseLabel, noise: MeasurementNoise, replicates: int,
+              rng: np.random.Generator) -> list[dict[str, float]]:
+    """The replicates' features of a case."""
+    return [measurement_noise(f, noise, rng) for f in truth.draw(label.params, label.effects, replicates, rng)]
+
+
+def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str, float]], rng: np.random.Generator,
+                      oracle: CaseLabel | None = None, fit_on: tuple[str, ...] = gaps.DEFAULT_FIT) -> Answer:
+    """Diagnose one case's replicate features with the truth emulator standing in for the simulator."""
+    from calibrax.diagnosis.run import candidate_spaces, recalibration, score_design
+
+    model = truth.model
+    effects = model.effects()
+    points = model.design()
+    box = model.box()
+    effect_params = {p.name: p for e in effects for p in e.parameters}
+    design = [truth.draw(p.params, p.effect_values, len(p.seeds), rng) for p in points]
+    scored = score_design(experiment, candidate_spaces(effects, None), points, design, 0, box, effect_params, model.seed)
+    names = scored.design.names
+    judge = tuple(n for n in names if gaps.group_of(n) not in fit_on)
+    ranking = scored.ranking
+    before = gaps.gap_size([g for g in scored.before if g.name in judge])
+    after = before
+    top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
+    if ranking.verdict != NO_EFFECT and top is not None and judge:
+        effect = next(e for e in effects if e.name == top.name)
+        with _quiet():   # one log line per case and design is the progress's job here
+            _, point = recalibration(box, effect, scored, fit_on, model.budget, model.seed)
+        sims = truth.draw(point.params, point.effect_values, model.budget.confirm, rng)
+        after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd) if g.name in judge])
+    oracle_after = math.nan
+    if oracle is not None and oracle.effects and oracle.klass not in (CLASS_NONE, CLASS_UNLISTED):
+        sims = truth.draw(oracle.params, oracle.effects, model.budget.confirm, rng)
+        oracle_after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd)
+                                      if g.name in judge])
+    models = ranking.models
+    return Answer(case, ranking.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
+                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after)
+
+
+@contextmanager
+def _quiet():
+    logger = logging.getLogger("calibrax")
+    level = logger.level
+    logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def run_emulated(truth: TruthEmulator, labels: list[CaseLabel], seed: int, noise: MeasurementNoise = MeasurementNoise(),
+                 replicates: int = 3, progress=None) -> list[Answer]:
+    """Make and diagnose every labelled case; the diagnosis sees only the replicates' features."""
+    answers = []
+    for i, label in enumerate(labels):
+        rng = np.random.default_rng([seed, 3, i])
+        experiment = make_case(truth, label, noise, replicates, rng)
+        answers.append(diagnose_emulated(truth, label.case, experiment, rng, oracle=label))
+        if progress:
+            progress(i + 1, len(labels))
+    return answers
+
+
+def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str) -> dict[str, Any]:
+    """The shipped design's data: every finished simulation's point, effects, seed and features."""
+    from calibrax.core.features import result_features
+
+    peak_window = model.spec.procedure.peak_window
+    rows = []
+    for pt, out in zip(points, outcomes):
+        for result in out.good:
+            rows.append({"point": pt.label, "params": dict(pt.params), "effects": dict(pt.effect_values),
+                         "seed": int(result.provenance.seed),
+                         "features": gaps.diagnosis_features(result_features(result, peak_window))})
+    return {"about": about, "model": model.source.name, "rows": rows}

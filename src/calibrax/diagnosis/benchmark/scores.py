@@ -1,0 +1,231 @@
+"""Scoring a benchmark: each case's answer against its label, and the table and figure.
+
+Scores (over the cases of the labels file that have an answer):
+
+* **top-1**: the verdict is the hidden effect, over the listed-effect cases (per magnitude, and
+  over medium and large together, the goal's set);
+* **top-2**: the hidden effect is the verdict or one of the two most probable models;
+* **confusion matrix**: rows are the classes, columns the verdicts;
+* **false alarms**: the share of ``none`` cases whose verdict is not "none";
+* **unlisted**: the share of unlisted-effect cases answered "none of the candidates";
+* **magnitude error**: |recovered − hidden| / hidden of the hidden effect's parameter, the
+  posterior mean of its model's joint fit (cases whose verdict is right);
+* **shrinkage against the oracle**: the diagnosis's held-out shrinkage over the oracle's (the
+  true effect at its true magnitude, simulated with fresh seeds and compared on the same
+  held-out features against the same "before"); a case the diagnosis recalibrated nothing for
+  shrank by 0.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibrax.diagnosis.benchmark.cases import CLASS_NONE, CLASS_UNLISTED, CaseLabel
+from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
+from calibrax.errors import ConfigError
+
+#: the goals of issue 20
+GOAL_TOP1, GOAL_FALSE_ALARMS, GOAL_SHRINKAGE = 0.8, 0.1, 0.7
+
+
+@dataclass(frozen=True)
+class Answer:
+    """What the diagnosis said of one case.
+
+    Attributes:
+        case: the case id.
+        verdict: an effect name, ``none`` or ``none of the candidates``.
+        ranked: the models' names, most probable first.
+        probabilities: {model name: probability}.
+        effect_means: {model name: {parameter: posterior mean}} of every candidate's joint fit.
+        gap_before, gap_after: the held-out features' RMS z before and after the recalibration
+            (after = before where nothing was recalibrated).
+        oracle_after: the same for the oracle (NaN where no oracle was run).
+    """
+
+    case: str
+    verdict: str
+    ranked: tuple[str, ...]
+    probabilities: dict[str, float]
+    effect_means: dict[str, dict[str, float]]
+    gap_before: float
+    gap_after: float
+    oracle_after: float = math.nan
+
+    @property
+    def shrinkage(self) -> float:
+        return _shrink(self.gap_before, self.gap_after)
+
+    @property
+    def oracle_shrinkage(self) -> float:
+        return _shrink(self.gap_before, self.oracle_after)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "ranked": list(self.ranked), "shrinkage": self.shrinkage,
+                "oracle_shrinkage": self.oracle_shrinkage}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Answer":
+        return cls(d["case"], d["verdict"], tuple(d["ranked"]), dict(d["probabilities"]),
+                   {k: dict(v) for k, v in d.get("effect_means", {}).items()}, float(d["gap_before"]),
+                   float(d["gap_after"]), float(d.get("oracle_after", math.nan)))
+
+
+def _shrink(before: float, after: float) -> float:
+    return 1.0 - after / before if math.isfinite(before) and math.isfinite(after) and before > 0 else math.nan
+
+
+def answer_from_diagnosis(case: str, result, oracle_after: float = math.nan) -> Answer:
+    """The answer of a :class:`~calibrax.diagnosis.Diagnosis`."""
+    from calibrax.diagnosis import gap as gaps
+
+    before = gaps.gap_size(result.held_out("before"))
+    after = gaps.gap_size(result.held_out("after")) if result.after else before
+    models = result.ranking.models
+    return Answer(case, result.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
+                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after)
+
+
+def write_answers(answers: list[Answer], path: Path) -> None:
+    path.write_text(json.dumps({"answers": [a.to_dict() for a in answers]}, indent=1, default=_plain))
+
+
+def read_answers(path: Path) -> list[Answer]:
+    try:
+        return [Answer.from_dict(d) for d in json.loads(Path(path).read_text())["answers"]]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ConfigError("--answers", f"{path}: not an answers file written by the benchmark ({exc})") from None
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    raise TypeError(type(v))
+
+
+@dataclass
+class Scores:
+    """The benchmark's scores (see the module docstring); rates are NaN where no case counts."""
+
+    classes: list[str]
+    verdicts: list[str]
+    confusion: np.ndarray                       # (classes, verdicts) counts
+    top1: dict[str, float]                      # by magnitude level, and "medium+large", "all"
+    top2: dict[str, float]
+    counts: dict[str, int]                      # cases per top-1 key
+    false_alarms: float
+    n_none: int
+    unlisted_rejected: float
+    n_unlisted: int
+    magnitude_error: float                      # median relative error
+    magnitude_errors: list[float]
+    shrinkage_ratio: float                      # median diagnosis/oracle shrinkage over listed cases
+    shrinkage_ratios: list[float]
+    per_case: list[dict[str, Any]] = field(default_factory=list)
+
+    def goals(self) -> list[tuple[str, bool]]:
+        return [(f"top-1 over medium and large ≥ {GOAL_TOP1:.0%}", self.top1.get("medium+large", math.nan) >= GOAL_TOP1),
+                (f"false alarms ≤ {GOAL_FALSE_ALARMS:.0%}", self.false_alarms <= GOAL_FALSE_ALARMS),
+                (f"median shrinkage ≥ {GOAL_SHRINKAGE:.0%} of the oracle's", self.shrinkage_ratio >= GOAL_SHRINKAGE)]
+
+
+def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
+    """Score answers against labels (cases without an answer are left out of every count)."""
+    by_case = {a.case: a for a in answers}
+    rows = [(lab, by_case[lab.case]) for lab in labels if lab.case in by_case]
+    listed = [(lab, a) for lab, a in rows if lab.klass not in (CLASS_NONE, CLASS_UNLISTED)]
+    classes = sorted({lab.klass for lab, _ in listed}) + [k for k in (CLASS_NONE, CLASS_UNLISTED)
+                                                          if any(lab.klass == k for lab, _ in rows)]
+    effects = sorted({lab.klass for lab, _ in listed} | {a.verdict for _, a in rows} - {NO_EFFECT, NONE_OF_THEM})
+    verdicts = effects + [NO_EFFECT, NONE_OF_THEM]
+    confusion = np.zeros((len(classes), len(verdicts)), dtype=int)
+    for lab, a in rows:
+        confusion[classes.index(lab.klass), verdicts.index(a.verdict)] += 1
+    top1, top2, counts = {}, {}, {}
+    for key, keep in (("small", lambda lab: lab.magnitude == "small"), ("medium", lambda lab: lab.magnitude == "medium"),
+                      ("large", lambda lab: lab.magnitude == "large"),
+                      ("medium+large", lambda lab: lab.magnitude in ("medium", "large")), ("all", lambda lab: True)):
+        sel = [(lab, a) for lab, a in listed if keep(lab)]
+        counts[key] = len(sel)
+        top1[key] = _rate([a.verdict == lab.expected for lab, a in sel])
+        top2[key] = _rate([a.verdict == lab.expected or lab.expected in a.ranked[:2] for lab, a in sel])
+    nones = [a for lab, a in rows if lab.klass == CLASS_NONE]
+    unlisted = [a for lab, a in rows if lab.klass == CLASS_UNLISTED]
+    errors = []
+    for lab, a in listed:
+        if a.verdict == lab.expected:
+            for name, truth in lab.effects.items():
+                got = a.effect_means.get(lab.expected, {}).get(name)
+                if got is not None and truth != 0:
+                    errors.append(abs(got - truth) / abs(truth))
+    ratios = []
+    for lab, a in listed:
+        if math.isfinite(a.oracle_shrinkage) and a.oracle_shrinkage > 0:
+            mine = a.shrinkage if math.isfinite(a.shrinkage) else 0.0
+            ratios.append(mine / a.oracle_shrinkage)
+    per_case = [{"case": lab.case, "class": lab.klass, "magnitude": lab.magnitude, "truth_backend": lab.truth_backend,
+                 "expected": lab.expected, "verdict": a.verdict, "p": a.probabilities.get(a.verdict, math.nan),
+                 "shrinkage": a.shrinkage, "oracle_shrinkage": a.oracle_shrinkage} for lab, a in rows]
+    return Scores(classes, verdicts, confusion, top1, top2, counts,
+                  _rate([a.verdict != NO_EFFECT for a in nones]), len(nones),
+                  _rate([a.verdict == NONE_OF_THEM for a in unlisted]), len(unlisted),
+                  float(np.median(errors)) if errors else math.nan, errors,
+                  float(np.median(ratios)) if ratios else math.nan, ratios, per_case)
+
+
+def _rate(flags: list[bool]) -> float:
+    return float(np.mean(flags)) if flags else math.nan
+
+
+def _pct(v: float) -> str:
+    return "–" if not math.isfinite(v) else f"{100 * v:.0f} %"
+
+
+def table(scores: Scores, title: str = "") -> str:
+    """The scores as markdown: the summary, the goals and the confusion matrix."""
+    s = scores
+    lines = [f"### {title}" if title else "", "", "| score | value | cases |", "|---|---|---|"]
+    for key in ("small", "medium", "large", "medium+large", "all"):
+        lines.append(f"| top-1, {key} | {_pct(s.top1[key])} | {s.counts[key]} |")
+    lines.append(f"| top-2, medium+large | {_pct(s.top2['medium+large'])} | {s.counts['medium+large']} |")
+    lines.append(f"| false alarms (no-effect cases not answered \"none\") | {_pct(s.false_alarms)} | {s.n_none} |")
+    lines.append(f"| unlisted effects answered \"none of the candidates\" | {_pct(s.unlisted_rejected)} | {s.n_unlisted} |")
+    lines.append(f"| magnitude error, median relative | {_pct(s.magnitude_error)} | {len(s.magnitude_errors)} |")
+    lines.append(f"| shrinkage / oracle's, median | {_pct(s.shrinkage_ratio)} | {len(s.shrinkage_ratios)} |")
+    lines += ["", "Goals: " + "; ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in s.goals()), "",
+              "| class \\ verdict | " + " | ".join(s.verdicts) + " |", "|---" * (len(s.verdicts) + 1) + "|"]
+    for i, k in enumerate(s.classes):
+        lines.append(f"| {k} | " + " | ".join(str(int(v)) for v in s.confusion[i]) + " |")
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def confusion_figure(scores: Scores, path: Path, title: str = "") -> Path:
+    """The confusion matrix as a heat map (rows normalised), counts written in the cells."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    c = scores.confusion.astype(float)
+    share = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
+    fig, ax = plt.subplots(figsize=(1.4 * len(scores.verdicts) + 2.5, 0.7 * len(scores.classes) + 2))
+    ax.imshow(share, cmap="Blues", vmin=0, vmax=1)
+    ax.set_xticks(range(len(scores.verdicts)), [v.replace("none of the candidates", "none of\nthe candidates")
+                                                 for v in scores.verdicts], rotation=30, ha="right")
+    ax.set_yticks(range(len(scores.classes)), scores.classes)
+    for i in range(c.shape[0]):
+        for j in range(c.shape[1]):
+            ax.text(j, i, f"{int(c[i, j])}", ha="center", va="center", color="white" if share[i, j] > 0.6 else "black")
+    ax.set_xlabel("verdict")
+    ax.set_ylabel("hidden (class)")
+    ax.set_title(title or "diagnosis benchmark: confusion matrix")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

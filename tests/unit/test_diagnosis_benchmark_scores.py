@@ -1,0 +1,110 @@
+"""The diagnosis benchmark's scoring: a labels file against known answers gives the known counts.
+
+The answers here are written by hand (no diagnosis runs): each case's verdict and ranking are
+chosen so that every score has a value worked out below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from calibrax.diagnosis.benchmark.cases import CaseLabel, read_labels, write_labels
+from calibrax.diagnosis.benchmark.scores import Answer, read_answers, score, table, write_answers
+from calibrax.errors import ConfigError
+
+NONE_OF = "none of the candidates"
+
+
+def _label(case, klass, magnitude="", effects=None):
+    expected = {"none": "none", "unlisted": NONE_OF}.get(klass, klass)
+    return CaseLabel(case, klass, expected, magnitude, "test", {"sliding_friction": 0.35}, effects or {})
+
+
+def _answer(case, verdict, ranked, means=None, before=4.0, after=4.0, oracle=math.nan):
+    return Answer(case, verdict, tuple(ranked), {r: 1.0 / (i + 2) for i, r in enumerate(ranked)}, means or {},
+                  before, after, oracle)
+
+
+LABELS = [
+    _label("a", "wall_friction", "large", {"wall_friction": 0.4}),
+    _label("b", "wall_friction", "medium", {"wall_friction": 0.2}),
+    _label("c", "wall_friction", "small", {"wall_friction": 0.1}),
+    _label("d", "cohesion", "large", {"cohesion_energy_density": 3e7}),
+    _label("e", "cohesion", "medium", {"cohesion_energy_density": 1.5e7}),
+    _label("f", "none"),
+    _label("g", "none"),
+    _label("h", "none"),
+    _label("i", "none"),
+    _label("j", "unlisted"),
+    _label("k", "unlisted"),
+    _label("z", "none"),             # no answer: left out of every count
+]
+ANSWERS = [
+    # right, magnitude 0.5 for 0.4 (error 25 %), shrinks 75 % where the oracle shrinks 100 %: ratio 0.75
+    _answer("a", "wall_friction", ["wall_friction", "none", "cohesion"], {"wall_friction": {"wall_friction": 0.5}},
+            4.0, 1.0, 0.0),
+    # right, magnitude 0.2 exactly, shrinks 50 % where the oracle shrinks 50 %: ratio 1
+    _answer("b", "wall_friction", ["wall_friction", "cohesion", "none"], {"wall_friction": {"wall_friction": 0.2}},
+            4.0, 2.0, 2.0),
+    # small, answered none; second in the ranking (top-2 only)
+    _answer("c", "none", ["none", "wall_friction", "cohesion"], {}, 4.0, 4.0, 1.0),
+    # wrong: answered wall friction, cohesion third: neither top-1 nor top-2; nothing shrinks against 50 %
+    _answer("d", "wall_friction", ["wall_friction", "none", "cohesion"], {}, 4.0, 4.0, 2.0),
+    # wrong verdict (none) but cohesion second: top-2; no oracle: no ratio
+    _answer("e", "none", ["none", "cohesion", "wall_friction"]),
+    _answer("f", "none", ["none", "cohesion"]),
+    _answer("g", "none", ["none", "wall_friction"]),
+    _answer("h", "cohesion", ["cohesion", "none"]),          # a false alarm
+    _answer("i", NONE_OF, ["none", "cohesion"]),              # also a false alarm (not "none")
+    _answer("j", NONE_OF, ["wall_friction", "none"]),
+    _answer("k", "wall_friction", ["wall_friction", "none"]),
+]
+
+
+def test_scores_count_right():
+    s = score(LABELS, ANSWERS)
+    assert s.classes == ["cohesion", "wall_friction", "none", "unlisted"]
+    assert s.verdicts == ["cohesion", "wall_friction", "none", NONE_OF]
+    expected = np.array([[0, 1, 1, 0],     # cohesion: d → wall friction, e → none
+                         [0, 2, 1, 0],     # wall friction: a, b right, c → none
+                         [1, 0, 2, 1],     # none: f, g right, h → cohesion, i → none of them ("z" has no answer)
+                         [0, 1, 0, 1]])    # unlisted: j rejected, k → wall friction
+    np.testing.assert_array_equal(s.confusion, expected)
+    assert s.counts == {"small": 1, "medium": 2, "large": 2, "medium+large": 4, "all": 5}
+    assert s.top1["large"] == 0.5 and s.top1["medium"] == 0.5 and s.top1["small"] == 0.0
+    assert s.top1["medium+large"] == 0.5 and s.top1["all"] == pytest.approx(2 / 5)
+    assert s.top2["medium+large"] == 0.75 and s.top2["small"] == 1.0
+    assert s.false_alarms == 0.5 and s.n_none == 4
+    assert s.unlisted_rejected == 0.5 and s.n_unlisted == 2
+    assert sorted(s.magnitude_errors) == pytest.approx([0.0, 0.25])
+    # ratios: a 0.75/1.0, b 0.5/0.5, c 0/0.75, d 0/0.5 (e has no oracle)
+    assert sorted(s.shrinkage_ratios) == pytest.approx([0.0, 0.0, 0.75, 1.0])
+    assert s.shrinkage_ratio == pytest.approx(0.375)
+    goals = dict(s.goals())
+    assert list(goals.values()) == [False, False, False]
+    text = table(s, "known answers")
+    assert "| wall_friction | 0 | 2 | 1 | 0 |" in text and "false alarms" in text
+
+
+def test_labels_and_answers_round_trip(tmp_path):
+    write_labels(LABELS, tmp_path / "labels.yaml")
+    write_answers(ANSWERS, tmp_path / "answers.json")
+    again = score(read_labels(tmp_path / "labels.yaml"), read_answers(tmp_path / "answers.json"))
+    np.testing.assert_array_equal(again.confusion, score(LABELS, ANSWERS).confusion)
+
+
+@pytest.mark.parametrize("text, words", [
+    ("cases: []\n", "non-empty list"),
+    ("cases:\n  - {case: a, class: none}\n", "expected"),
+    ("cases:\n  - {case: a, class: none, expected: none}\n  - {case: a, class: none, expected: none}\n", "twice"),
+    ("cases:\n  - {case: a, class: none, expected: none, effects: {x: big}}\n", "effects"),
+])
+def test_a_bad_labels_file_is_named(tmp_path, text, words):
+    path = tmp_path / "labels.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=words) as err:
+        read_labels(path)
+    assert str(path) in str(err.value)
