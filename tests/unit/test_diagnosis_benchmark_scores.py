@@ -77,6 +77,8 @@ def test_scores_count_right():
     assert s.top1["large"] == 0.5 and s.top1["medium"] == 0.5 and s.top1["small"] == 0.0
     assert s.top1["medium+large"] == 0.5 and s.top1["all"] == pytest.approx(2 / 5)
     assert s.top2["medium+large"] == 0.75 and s.top2["small"] == 1.0
+    assert s.top1_by_class == {"cohesion": 0.0, "wall_friction": 1.0}
+    assert s.counts_by_class == {"cohesion": 2, "wall_friction": 2}
     assert s.false_alarms == 0.5 and s.n_none == 4
     assert s.unlisted_rejected == 0.5 and s.n_unlisted == 2
     assert sorted(s.magnitude_errors) == pytest.approx([0.0, 0.25])

@@ -79,7 +79,7 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
     (out / "scores.json").write_text(json.dumps(
         {"level": level, "model": str(bench.source), "classes": result.classes, "verdicts": result.verdicts,
          "confusion": result.confusion.tolist(), "top1": result.top1, "top2": result.top2, "counts": result.counts,
-         "false_alarms": result.false_alarms, "unlisted_rejected": result.unlisted_rejected,
+         "top1_by_class": result.top1_by_class, "false_alarms": result.false_alarms, "unlisted_rejected": result.unlisted_rejected,
          "magnitude_error": result.magnitude_error, "shrinkage_ratio": result.shrinkage_ratio,
          "goals": {name: ok for name, ok in result.goals()}, "cases": result.per_case,
          "wall_time": time.monotonic() - started}, indent=1, default=float))

@@ -128,6 +128,9 @@ class Scores:
     shrinkage_ratio: float                      # median diagnosis/oracle shrinkage over listed cases
     shrinkage_ratios: list[float]
     per_case: list[dict[str, Any]] = field(default_factory=list)
+    #: top-1 over medium and large per listed class, and the counts
+    top1_by_class: dict[str, float] = field(default_factory=dict)
+    counts_by_class: dict[str, int] = field(default_factory=dict)
 
     def goals(self) -> list[tuple[str, bool]]:
         return [(f"top-1 over medium and large ≥ {GOAL_TOP1:.0%}", self.top1.get("medium+large", math.nan) >= GOAL_TOP1),
@@ -155,6 +158,10 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
         counts[key] = len(sel)
         top1[key] = _rate([a.verdict == lab.expected for lab, a in sel])
         top2[key] = _rate([a.verdict == lab.expected or lab.expected in a.ranked[:2] for lab, a in sel])
+    by_class, by_class_n = {}, {}
+    for k in sorted({lab.klass for lab, _ in listed}):
+        sel = [(lab, a) for lab, a in listed if lab.klass == k and lab.magnitude in ("medium", "large")]
+        by_class[k], by_class_n[k] = _rate([a.verdict == lab.expected for lab, a in sel]), len(sel)
     nones = [a for lab, a in rows if lab.klass == CLASS_NONE]
     unlisted = [a for lab, a in rows if lab.klass == CLASS_UNLISTED]
     errors = []
@@ -176,7 +183,7 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
                   _rate([a.verdict != NO_EFFECT for a in nones]), len(nones),
                   _rate([a.verdict == NONE_OF_THEM for a in unlisted]), len(unlisted),
                   float(np.median(errors)) if errors else math.nan, errors,
-                  float(np.median(ratios)) if ratios else math.nan, ratios, per_case)
+                  float(np.median(ratios)) if ratios else math.nan, ratios, per_case, by_class, by_class_n)
 
 
 def _rate(flags: list[bool]) -> float:
@@ -193,6 +200,8 @@ def table(scores: Scores, title: str = "") -> str:
     lines = [f"### {title}" if title else "", "", "| score | value | cases |", "|---|---|---|"]
     for key in ("small", "medium", "large", "medium+large", "all"):
         lines.append(f"| top-1, {key} | {_pct(s.top1[key])} | {s.counts[key]} |")
+    for k, v in s.top1_by_class.items():
+        lines.append(f"| top-1, medium+large, {k} | {_pct(v)} | {s.counts_by_class[k]} |")
     lines.append(f"| top-2, medium+large | {_pct(s.top2['medium+large'])} | {s.counts['medium+large']} |")
     lines.append(f"| false alarms (no-effect cases not answered \"none\") | {_pct(s.false_alarms)} | {s.n_none} |")
     lines.append(f"| unlisted effects answered \"none of the candidates\" | {_pct(s.unlisted_rejected)} | {s.n_unlisted} |")
@@ -224,7 +233,9 @@ def confusion_figure(scores: Scores, path: Path, title: str = "") -> Path:
             ax.text(j, i, f"{int(c[i, j])}", ha="center", va="center", color="white" if share[i, j] > 0.6 else "black")
     ax.set_xlabel("verdict")
     ax.set_ylabel("hidden (class)")
-    ax.set_title(title or "diagnosis benchmark: confusion matrix")
+    import textwrap
+
+    ax.set_title(textwrap.fill(title or "diagnosis benchmark: confusion matrix", 60), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
