@@ -34,6 +34,7 @@ LABELS = [
     _label("c", "wall_friction", "small", {"wall_friction": 0.1}),
     _label("d", "cohesion", "large", {"cohesion_energy_density": 3e7}),
     _label("e", "cohesion", "medium", {"cohesion_energy_density": 1.5e7}),
+    _label("e2", "cohesion", "small", {"cohesion_energy_density": 0.75e7}),
     _label("f", "none"),
     _label("g", "none"),
     _label("h", "none"),
@@ -55,6 +56,7 @@ ANSWERS = [
     _answer("d", "wall_friction", ["wall_friction", "none", "cohesion"], {}, 4.0, 4.0, 2.0),
     # wrong verdict (none) but cohesion second: top-2; no oracle: no ratio
     _answer("e", "none", ["none", "cohesion", "wall_friction"]),
+    _answer("e2", "none", ["none", "cohesion"], {}, 4.0, 4.0, 3.5),   # the oracle shrinks 1/8: no ratio
     _answer("f", "none", ["none", "cohesion"]),
     _answer("g", "none", ["none", "wall_friction"]),
     _answer("h", "cohesion", ["cohesion", "none"]),          # a false alarm
@@ -68,23 +70,24 @@ def test_scores_count_right():
     s = score(LABELS, ANSWERS)
     assert s.classes == ["cohesion", "wall_friction", "none", "unlisted"]
     assert s.verdicts == ["cohesion", "wall_friction", "none", NONE_OF]
-    expected = np.array([[0, 1, 1, 0],     # cohesion: d → wall friction, e → none
+    expected = np.array([[0, 1, 2, 0],     # cohesion: d → wall friction, e and e2 → none
                          [0, 2, 1, 0],     # wall friction: a, b right, c → none
                          [1, 0, 2, 1],     # none: f, g right, h → cohesion, i → none of them ("z" has no answer)
                          [0, 1, 0, 1]])    # unlisted: j rejected, k → wall friction
     np.testing.assert_array_equal(s.confusion, expected)
-    assert s.counts == {"small": 1, "medium": 2, "large": 2, "medium+large": 4, "all": 5}
+    assert s.counts == {"small": 2, "medium": 2, "large": 2, "medium+large": 4, "all": 6}
     assert s.top1["large"] == 0.5 and s.top1["medium"] == 0.5 and s.top1["small"] == 0.0
-    assert s.top1["medium+large"] == 0.5 and s.top1["all"] == pytest.approx(2 / 5)
+    assert s.top1["medium+large"] == 0.5 and s.top1["all"] == pytest.approx(2 / 6)
     assert s.top2["medium+large"] == 0.75 and s.top2["small"] == 1.0
     assert s.top1_by_class == {"cohesion": 0.0, "wall_friction": 1.0}
     assert s.counts_by_class == {"cohesion": 2, "wall_friction": 2}
     assert s.false_alarms == 0.5 and s.n_none == 4
     assert s.unlisted_rejected == 0.5 and s.n_unlisted == 2
     assert sorted(s.magnitude_errors) == pytest.approx([0.0, 0.25])
-    # ratios: a 0.75/1.0, b 0.5/0.5, c 0/0.75, d 0/0.5 (e has no oracle)
+    # ratios: a 0.75/1.0, b 0.5/0.5, c 0/0.75, d 0/0.5; e has no oracle, f's oracle shrinks 1/8 (< 1/4)
     assert sorted(s.shrinkage_ratios) == pytest.approx([0.0, 0.0, 0.75, 1.0])
     assert s.shrinkage_ratio == pytest.approx(0.375)
+    assert s.shrinkage_by_class == pytest.approx({"cohesion": 0.0, "wall_friction": 0.75})   # a, b, c
     goals = dict(s.goals())
     assert list(goals.values()) == [False, False, False]
     text = table(s, "known answers")

@@ -35,7 +35,9 @@ evidence on Kass and Raftery's scale: a candidate that merely ties with the nois
 and it leaves no feature implausible at its best fit; "no effect" when no candidate reaches that
 factor and "no effect" itself leaves no feature implausible; otherwise "none of the candidates":
 even the best model leaves a feature beyond ``|z| > 3`` (history matching's cut-off, Pukelsheim's
-three-sigma rule for any unimodal distribution).
+three-sigma rule for any unimodal distribution), or its best fit's joint misfit ``rᵀΣ⁻¹r`` fails a
+χ² test at 1 % on (features − fitted parameters) degrees of freedom (nine features each within
+three s.d. can still be jointly impossible).
 """
 
 from __future__ import annotations
@@ -56,6 +58,8 @@ MIN_QUADRATIC_DOF = 6
 #: quasi-Monte Carlo points of the evidence integral (a power of two)
 EVIDENCE_POINTS = 2 ** 13
 NO_EFFECT = "none"
+#: the best fit's χ² p-value below which its model cannot reproduce the features jointly
+MIN_ADEQUACY = 0.01
 #: a candidate wins only when its evidence beats "no effect" by this factor ("positive" evidence on
 #: Kass and Raftery's scale); below it, the gap is put down to noise
 MIN_BAYES_FACTOR = 3.0
@@ -200,6 +204,17 @@ class ModelScore:
     prior_text: tuple[str, ...] = ()
     #: the posterior mean of the calibrated parameters on [−1, 1], shape (d,)
     mean_unit: np.ndarray | None = None
+    #: the best fit's joint misfit rᵀΣ⁻¹r and its degrees of freedom (features − fitted parameters)
+    chi2: float = math.nan
+    dof: int = 0
+
+    @property
+    def adequacy(self) -> float:
+        """The χ² test's p-value of the best fit: the chance of a misfit at least this large if
+        the model were right (small: the model cannot reproduce the features jointly)."""
+        from scipy.stats import chi2
+
+        return float(chi2.sf(self.chi2, max(self.dof, 1))) if math.isfinite(self.chi2) else math.nan
 
     @property
     def max_abs_z(self) -> float:
@@ -268,7 +283,8 @@ def score_model(target: Target, emulator: Emulator, candidate: CandidateSpace | 
     log_z = float(logsumexp(ll) - math.log(ll.size))
     best = int(np.argmax(ll))
     best_unit, best_eff = _refine(target, emulator, unit[best], effects[best], candidate)
-    _, z_best = log_likelihood(target, emulator, best_unit[None], best_eff[None])
+    ll_best, z_best = log_likelihood(target, emulator, best_unit[None], best_eff[None])
+    chi2 = _mahalanobis(target, emulator, best_unit, best_eff)
     w = np.exp(ll - ll.max())
     w /= w.sum()
     mean, interval, best_natural = {}, {}, {}
@@ -281,8 +297,18 @@ def score_model(target: Target, emulator: Emulator, candidate: CandidateSpace | 
             best_natural[name] = float(candidate.off[i] + best_eff[col] * (candidate.high[i] - candidate.off[i]))
     name = candidate.name if candidate else NO_EFFECT
     label = candidate.label if candidate else "no effect"
+    k = len(candidate.parameters) if candidate else 0
     return ModelScore(name, label, log_z, math.nan, best_unit, best_natural, mean, interval, z_best[0],
-                      candidate.prior_text if candidate else (), np.sum(w[:, None] * unit, axis=0))
+                      candidate.prior_text if candidate else (), np.sum(w[:, None] * unit, axis=0), chi2,
+                      target.mean.size - emulator.d - k)
+
+
+def _mahalanobis(target: Target, emulator: Emulator, unit: np.ndarray, effects: np.ndarray) -> float:
+    """rᵀΣ⁻¹r of the experiment against the emulator at one point."""
+    mu, h = emulator.predict(unit[None], effects[None])
+    cov = _covariances(target, emulator, h)[0]
+    r = target.mean - mu[0]
+    return float(r @ np.linalg.solve(cov, r))
 
 
 def _refine(target: Target, emulator: Emulator, unit: np.ndarray, effects: np.ndarray,
@@ -328,6 +354,8 @@ def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed:
     factor = math.exp(min(best.log_evidence - none.log_evidence, 700.0)) if best else 0.0
     top = best if best is not None and factor >= MIN_BAYES_FACTOR else none
     worst = [design.names[j] for j in np.flatnonzero(np.abs(top.z) > IMPLAUSIBLE_Z)]
+    if not worst and top.adequacy < MIN_ADEQUACY:
+        worst = [f"the features jointly (χ² {top.chi2:.1f} on {top.dof} degrees of freedom, p = {top.adequacy:.2g})"]
     if worst:
         verdict = NONE_OF_THEM
         reason = (f"the best model ({top.label}, p = {top.probability:.2f}) still leaves "

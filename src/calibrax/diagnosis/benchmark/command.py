@@ -75,7 +75,8 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
     result = sc.score(given, found)
     title = f"Diagnosis benchmark, {level_words}"
     text = sc.table(result, title)
-    (out / "scores.md").write_text(text + "\n" + _per_case_table(result) + "\n")
+    extra = _detectability(level, bench, design) if answers is None and cases is None else ""
+    (out / "scores.md").write_text(text + "\n" + extra + "\n" + _per_case_table(result) + "\n")
     (out / "scores.json").write_text(json.dumps(
         {"level": level, "model": str(bench.source), "classes": result.classes, "verdicts": result.verdicts,
          "confusion": result.confusion.tolist(), "top1": result.top1, "top2": result.top2, "counts": result.counts,
@@ -88,6 +89,14 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
     print("written: " + ", ".join(str(out / f) for f in ("scores.md", "scores.json", "confusion.png", "answers.json")
                                   if (out / f).exists()))
     return 0
+
+
+def _detectability(level: str, bench, design) -> str:
+    if level != "emulator":
+        return ""
+    from calibrax.diagnosis.benchmark import emulated as em
+
+    return em.detectability(em.TruthEmulator.fit(bench, em.load_design(design)["rows"]))
 
 
 def _classes(bench) -> list[str]:
