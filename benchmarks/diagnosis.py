@@ -61,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.what == "make-design":
         from calibrax.diagnosis.benchmark.emulated import DEFAULT_DESIGN
 
-        return make_design(args.workers, Path("runs/bench/design"), args.output or DEFAULT_DESIGN)
+        # the DEM level's own design folder: a later --level dem run finds the design finished
+        return make_design(args.workers, Path("runs/diagnose-benchmark-dem/design"), args.output or DEFAULT_DESIGN)
     from calibrax.diagnosis.benchmark.command import run_benchmark
 
     return run_benchmark(level=args.level, per_class=args.per_class, seed=args.seed, workers=args.workers,
