@@ -2,8 +2,9 @@
 
 The DEM level makes ``per_class`` cases of every class on the model's own backend (a listed
 effect's cases cycle through small, medium and large) and, for each class in
-``other_backends``, as many again on that backend (LIGGGHTS by default: the nearer stand-in for a
-real powder, whose contact implementation, packing and servo differ from numba_dem's). Truth
+``other_backends``, as many again on that backend (by default the wall-friction class on LIGGGHTS:
+the nearer stand-in for a real powder, whose contact implementation, packing and servo differ
+from numba_dem's). Truth
 parameters cycle through :data:`TRUTH_PARAMS`, inside the model's plausible region.
 """
 
