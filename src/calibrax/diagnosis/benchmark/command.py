@@ -66,22 +66,23 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
     started = time.monotonic()
     if answers is not None:
         found = sc.read_answers(answers)
-        level_words = f"answers of {answers}"
+        level_words, extra = f"answers of {answers}", ""
     else:
-        found, given, level_words = _diagnose(level, bench, design, per_class, cases, given, other, seed, workers, out)
+        found, given, level_words, extra = _diagnose(level, bench, design, per_class, cases, given, other, seed,
+                                                     workers, out)
         out.mkdir(parents=True, exist_ok=True)
         sc.write_answers(found, out / "answers.json")
     out.mkdir(parents=True, exist_ok=True)
     result = sc.score(given, found)
     title = f"Diagnosis benchmark, {level_words}"
     text = sc.table(result, title)
-    extra = _detectability(level, bench, design) if answers is None and cases is None else ""
     (out / "scores.md").write_text(text + "\n" + extra + "\n" + _per_case_table(result) + "\n")
     (out / "scores.json").write_text(json.dumps(
         {"level": level, "model": str(bench.source), "classes": result.classes, "verdicts": result.verdicts,
          "confusion": result.confusion.tolist(), "top1": result.top1, "top2": result.top2, "counts": result.counts,
          "top1_by_class": result.top1_by_class, "false_alarms": result.false_alarms, "unlisted_rejected": result.unlisted_rejected,
          "magnitude_error": result.magnitude_error, "shrinkage_ratio": result.shrinkage_ratio,
+         "shrinkage_by_class": result.shrinkage_by_class,
          "goals": {name: ok for name, ok in result.goals()}, "cases": result.per_case,
          "wall_time": time.monotonic() - started}, indent=1, default=float))
     sc.confusion_figure(result, out / "confusion.png", title)
@@ -89,14 +90,6 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
     print("written: " + ", ".join(str(out / f) for f in ("scores.md", "scores.json", "confusion.png", "answers.json")
                                   if (out / f).exists()))
     return 0
-
-
-def _detectability(level: str, bench, design) -> str:
-    if level != "emulator":
-        return ""
-    from calibrax.diagnosis.benchmark import emulated as em
-
-    return em.detectability(em.TruthEmulator.fit(bench, em.load_design(design)["rows"]))
 
 
 def _classes(bench) -> list[str]:
@@ -107,31 +100,42 @@ def _classes(bench) -> list[str]:
 
 
 def _diagnose(level, bench, design, per_class, cases, given, other, seed, workers, out):
-    """Make or read the cases and diagnose them: (answers, labels, words for the title)."""
-    from calibrax.diagnosis.benchmark import emulated as em
-    from calibrax.diagnosis.benchmark.cases import write_labels
-    from calibrax.plugins.manager import get_manager
-
+    """Make or read the cases and diagnose them: (answers, labels, words for the title, more text
+    for scores.md)."""
     per_class = per_class or DEFAULT_PER_CLASS[level]
     if level == "emulator":
-        data = em.load_design(design)
-        truth = em.TruthEmulator.fit(bench, data["rows"])
-        progress = _progress_log("diagnose-benchmark")
-        if cases is not None:
-            experiments = _read_cases(cases, given, bench)
-            found = []
-            for i, label in enumerate(given):
-                rng = np.random.default_rng([seed, 4, i])
-                found.append(em.diagnose_emulated(truth, label.case, experiments[label.case], rng, oracle=label))
-                progress(i + 1, len(given))
-            return found, given, f"emulator level, external cases in {cases}"
-        labels = em.plan_emulated(bench, per_class, seed)
-        out.mkdir(parents=True, exist_ok=True)
-        write_labels(labels, out / "labels.yaml")
-        found = em.run_emulated(truth, labels, seed, progress=progress)
-        return found, labels, (f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of "
-                               f"{Path(design or em.DEFAULT_DESIGN).name})")
+        return _emulator_level(bench, design, per_class, cases, given, seed, out)
+    return _dem_level(bench, per_class, cases, given, other, seed, workers, out)
+
+
+def _emulator_level(bench, design, per_class, cases, given, seed, out):
+    from calibrax.diagnosis.benchmark import emulated as em
+    from calibrax.diagnosis.benchmark.cases import write_labels
+
+    truth = em.TruthEmulator.fit(bench, em.load_design(design)["rows"])
+    progress = _progress_log("diagnose-benchmark")
+    if cases is not None:
+        experiments = _read_cases(cases, given, bench)
+        found = []
+        for i, label in enumerate(given):
+            rng = np.random.default_rng([seed, 4, i])
+            found.append(em.diagnose_emulated(truth, label.case, experiments[label.case], rng, oracle=label))
+            progress(i + 1, len(given))
+        return found, given, f"emulator level, external cases in {cases}", ""
+    labels = em.plan_emulated(bench, per_class, seed)
+    out.mkdir(parents=True, exist_ok=True)
+    write_labels(labels, out / "labels.yaml")
+    found = em.run_emulated(truth, labels, seed, progress=progress)
+    words = f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of {Path(design or em.DEFAULT_DESIGN).name})"
+    return found, labels, words, em.detectability(truth)
+
+
+def _dem_level(bench, per_class, cases, given, other, seed, workers, out):
+    """Real simulations; external cases get no oracle (it would need their truth's simulations)."""
     from calibrax.diagnosis.benchmark import dem
+    from calibrax.diagnosis.benchmark.cases import read_labels
+    from calibrax.diagnosis.benchmark.plan import plan_dem
+    from calibrax.plugins.manager import get_manager
 
     def make_executor():
         return get_manager().create("executor", "local", workers=workers or 1)
@@ -144,15 +148,11 @@ def _diagnose(level, bench, design, per_class, cases, given, other, seed, worker
             design_store, _ = dem.run_design(bench, out / "design", executor)
         finally:
             executor.shutdown()
-        return dem.diagnose_cases(bench, files, out, design_store, make_executor), given, \
-            f"DEM level, external cases in {cases}"
-    from calibrax.diagnosis.benchmark.plan import plan_dem
-
-    plans = plan_dem(bench, per_class, other, seed)
-    labels_path, found = dem.run_dem_level(bench, plans, out, make_executor, seed=seed)
-    from calibrax.diagnosis.benchmark.cases import read_labels
-
-    return found, read_labels(labels_path), f"DEM level ({len(found)} cases, diagnosed on {bench.simulator})"
+        return (dem.diagnose_cases(bench, files, out, design_store, make_executor), given,
+                f"DEM level, external cases in {cases}", "")
+    labels_path, found = dem.run_dem_level(bench, plan_dem(bench, per_class, other, seed), out, make_executor,
+                                           seed=seed)
+    return found, read_labels(labels_path), f"DEM level ({len(found)} cases, diagnosed on {bench.simulator})", ""
 
 
 def _read_cases(folder: Path, labels, bench) -> dict:
