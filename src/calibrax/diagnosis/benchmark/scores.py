@@ -139,10 +139,16 @@ class Scores:
     shrinkage_by_class: dict[str, float] = field(default_factory=dict)
     shrinkage_counts: dict[str, int] = field(default_factory=dict)
 
-    def goals(self) -> list[tuple[str, bool]]:
-        return [(f"top-1 over medium and large ≥ {GOAL_TOP1:.0%}", self.top1.get("medium+large", math.nan) >= GOAL_TOP1),
-                (f"false alarms ≤ {GOAL_FALSE_ALARMS:.0%}", self.false_alarms <= GOAL_FALSE_ALARMS),
-                (f"median shrinkage ≥ {GOAL_SHRINKAGE:.0%} of the oracle's", self.shrinkage_ratio >= GOAL_SHRINKAGE)]
+    def goals(self) -> list[tuple[str, bool | None]]:
+        """Each goal met (True), not met (False) or without a case to judge it (None)."""
+        def judged(value: float, ok: bool) -> bool | None:
+            return None if not math.isfinite(value) else ok
+
+        top1 = self.top1.get("medium+large", math.nan)
+        return [(f"top-1 over medium and large ≥ {GOAL_TOP1:.0%}", judged(top1, top1 >= GOAL_TOP1)),
+                (f"false alarms ≤ {GOAL_FALSE_ALARMS:.0%}", judged(self.false_alarms, self.false_alarms <= GOAL_FALSE_ALARMS)),
+                (f"median shrinkage ≥ {GOAL_SHRINKAGE:.0%} of the oracle's",
+                 judged(self.shrinkage_ratio, self.shrinkage_ratio >= GOAL_SHRINKAGE))]
 
 
 def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
@@ -220,7 +226,8 @@ def table(scores: Scores, title: str = "") -> str:
                  f"{_pct(s.shrinkage_ratio)} | {len(s.shrinkage_ratios)} |")
     for k, v in s.shrinkage_by_class.items():
         lines.append(f"| shrinkage / oracle's, {k} | {_pct(v)} | {s.shrinkage_counts[k]} |")
-    lines += ["", "Goals: " + "; ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in s.goals()), "",
+    verdict = {True: "met", False: "NOT met", None: "no cases"}
+    lines += ["", "Goals: " + "; ".join(f"{name}: {verdict[ok]}" for name, ok in s.goals()), "",
               "| class \\ verdict | " + " | ".join(s.verdicts) + " |", "|---" * (len(s.verdicts) + 1) + "|"]
     for i, k in enumerate(s.classes):
         lines.append(f"| {k} | " + " | ".join(str(int(v)) for v in s.confusion[i]) + " |")
