@@ -72,17 +72,9 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
             results = list(pool.map(_simulate, [simulator_name] * replicates, specs))
     else:
         results = [_simulate(simulator_name, s) for s in specs]
-    points, curves = [], []
     for r, result in enumerate(results):
         if on_result:
             on_result(r, result)
-        shear = [s for s in result.steps if s.kind == "shear"]
-        for k, step in enumerate(shear):
-            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k]:.6g},{r + 1},"
-                          f"{result.peak_normal_stress[k]:.6g},{result.preshear_normal_stress[k]:.6g},"
-                          f"{result.preshear_shear_stress[k]:.6g},{result.bulk_density[0]:.6g}")
-            for rot, tau in zip(step.rotation, step.shear_stress):
-                curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau:.6g}")
     g = spec.geometry
     base = f"{g.base_ribs} ribs {g.rib_height * 1e3:.2g} mm high" if g.base_ribs else "flat"
     provenance = [
@@ -93,6 +85,34 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
         f"Effects: {effects_text(spec)}.",
         f"Replicates are seeds {seeds} of the same spec.",
     ]
+    header = {"preshear_stress_pa": float(spec.procedure.preshear_stress),
+              "cell": {"preset": spec.name, "base_ribs": g.base_ribs, "rib_height": g.rib_height,
+                       "wall_friction": g.wall_friction},
+              "material": {k: float(v) for k, v in sorted(vars(spec.material).items())}}
+    return write_experiment(results, out, provenance, header)
+
+
+def write_experiment(results: list[ShearTestResult], out: Path, provenance: list[str], header: dict,
+                     factor: Callable[[str], float] | None = None) -> Path:
+    """Write results as an experiment: ``out``.yaml (name, source, the CSVs' names, then ``header``)
+    and its points and curves CSVs, each beginning with ``provenance`` as comments.
+
+    ``factor(kind)`` scales what an instrument would measure (measurement noise): it is asked for
+    ``"density"`` once per replicate, then for ``"tau"`` (a step's peak and curve),
+    ``"preshear"`` (its preshear τ) and ``"sigma"`` (its measured σ) per shear step, in that order.
+    """
+    one = factor or (lambda kind: 1.0)
+    points, curves = [], []
+    for r, result in enumerate(results):
+        shear = [s for s in result.steps if s.kind == "shear"]
+        density = float(result.bulk_density[0]) * one("density")
+        for k, step in enumerate(shear):
+            f_tau, f_pre, f_sig = one("tau"), one("preshear"), one("sigma")
+            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k] * f_tau:.6g},{r + 1},"
+                          f"{result.peak_normal_stress[k] * f_sig:.6g},{result.preshear_normal_stress[k] * f_sig:.6g},"
+                          f"{result.preshear_shear_stress[k] * f_pre:.6g},{density:.6g}")
+            for rot, tau in zip(step.rotation, step.shear_stress):
+                curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau * f_tau:.6g}")
     out = Path(out)
     out = out.with_suffix("") if out.suffix in (".yaml", ".csv") else out
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -103,11 +123,8 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
                            "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3\n"
                            + "\n".join(points) + "\n")
     curves_path.write_text(comment + "replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n" + "\n".join(curves) + "\n")
-    header = {"name": out.name, "source": " ".join(provenance), "points": points_path.name,
-              "curves": curves_path.name, "preshear_stress_pa": float(spec.procedure.preshear_stress),
-              "cell": {"preset": spec.name, "base_ribs": g.base_ribs, "rib_height": g.rib_height,
-                       "wall_friction": g.wall_friction},
-              "material": {k: float(v) for k, v in sorted(vars(spec.material).items())}}
+    full = {"name": out.name, "source": " ".join(provenance), "points": points_path.name, "curves": curves_path.name,
+            **header}
     path = out.parent / f"{out.name}.yaml"
-    path.write_text(comment + yaml.safe_dump(header, sort_keys=False, allow_unicode=True))
+    path.write_text(comment + yaml.safe_dump(full, sort_keys=False, allow_unicode=True))
     return path

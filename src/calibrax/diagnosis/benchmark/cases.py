@@ -157,35 +157,14 @@ def write_blinded(results: list, out: Path, cell_words: dict[str, Any], noise: M
                   rng: np.random.Generator) -> Path:
     """Write replicate results as an ordinary experiment under ``out``'s stem, with measurement
     noise on top and a header that names the cell but nothing that made the data."""
-    points, curves = [], []
-    for r, result in enumerate(results):
-        shear = [s for s in result.steps if s.kind == "shear"]
-        density = float(result.bulk_density[0]) * _factor(rng, noise.density if noise else 0.0)
-        for k, step in enumerate(shear):
-            f_tau = _factor(rng, noise.tau if noise else 0.0)
-            f_pre = _factor(rng, noise.tau if noise else 0.0)
-            f_sig = _factor(rng, noise.sigma if noise else 0.0)
-            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k] * f_tau:.6g},{r + 1},"
-                          f"{result.peak_normal_stress[k] * f_sig:.6g},{result.preshear_normal_stress[k] * f_sig:.6g},"
-                          f"{result.preshear_shear_stress[k] * f_pre:.6g},{density:.6g}")
-            for rot, tau in zip(step.rotation, step.shear_stress):
-                curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau * f_tau:.6g}")
+    from calibrax.core.pseudo import write_experiment
+
+    sd = {"density": noise.density, "tau": noise.tau, "preshear": noise.tau, "sigma": noise.sigma} if noise else {}
     words = ("MADE DATA FOR A BLIND BENCHMARK, NOT MEASURED. What made it is in the benchmark's labels file, "
              "which the diagnosis does not read.")
-    comment = f"# {words}\n"
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    (out.parent / f"{out.name}-points.csv").write_text(
-        comment + "normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,"
-        "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3\n" + "\n".join(points) + "\n")
-    (out.parent / f"{out.name}-curves.csv").write_text(
-        comment + "replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n" + "\n".join(curves) + "\n")
-    header = {"name": out.name, "source": words, "points": f"{out.name}-points.csv", "curves": f"{out.name}-curves.csv",
-              "preshear_stress_pa": float(cell_words.get("preshear_stress_pa", math.nan)),
+    header = {"preshear_stress_pa": float(cell_words.get("preshear_stress_pa", math.nan)),
               "cell": {k: v for k, v in cell_words.items() if k != "preshear_stress_pa"}}
-    path = out.parent / f"{out.name}.yaml"
-    path.write_text(comment + yaml.safe_dump(header, sort_keys=False, allow_unicode=True))
-    return path
+    return write_experiment(results, out, [words], header, lambda kind: _factor(rng, sd.get(kind, 0.0)))
 
 
 def _factor(rng: np.random.Generator, sd: float) -> float:
