@@ -33,16 +33,16 @@ identifications (a parameter the answer calls constrained while the surface's ow
 spans ≥ 80 % of its range), and the overhead: seconds of model work per batch (Kriging fits,
 acquisition optimisation and the answer's evaluation).
 
-Strategies: ``default`` (qEI, q = 2, on the noise-aware log1p Kriging model, best_f from the
-posterior mean, the answer's recommendation), ``qei_plain`` (the former search: qEI on a plain
-Kriging model of d with freely fitted noise, best_f the best observation, the best observation
-recommended), ``qlogei``, ``qlognei`` (on the default model, the answer recommended), ``sobol`` and
-``random`` (the best observation recommended), ``sobol_model`` (Sobol points, the default model's
-recommendation), ``cma`` (CMA-ES from the ``cma`` package, as ACCES uses; its mean recommended),
-``composite`` (one Kriging model per feature, each with the metric's seed spread as its noise; the
-distance computed from their joint prediction: q-point EI on the distance by Monte Carlo over 2048
-Sobol candidates, greedy with a local penalty, and the minimiser of the predicted distance
-recommended; benchmark only, not yet a campaign option).
+Strategies: ``default`` (the campaign's default: qEI, q = 2, on the composite Kriging model of
+calibrax.core.composite, one GP per feature with the metric's seed spread as its noise prior, the
+distance from their joint prediction, best_f from the expected distance at the evaluated points, the
+answer's recommendation), ``distance`` (qEI, q = 2, on the noise-aware log1p Kriging model of the
+distance itself, ``surrogate: {model: distance}``; the default before the composite model),
+``qei_plain`` (the search before issue 18: qEI on a plain Kriging model of d with freely fitted
+noise, best_f the best observation, the best observation recommended), ``qlogei``, ``qlognei`` (on
+the distance model, the answer recommended), ``sobol`` and ``random`` (the best observation
+recommended), ``sobol_model`` (Sobol points, the default model's recommendation), ``cma`` (CMA-ES
+from the ``cma`` package, as ACCES uses; its mean recommended).
 """
 
 from __future__ import annotations
@@ -64,7 +64,9 @@ STEMS = ("peak_ratio", "preshear_ratio", "bulk_density")
 #: √χ²₃(0.95): the truth's E stays below it 95 % of the time
 T_EXPERIMENT = 2.7955
 BOX = {"youngs_modulus": (5.0e9, 5.0e10, True), "sliding_friction": (0.1, 0.9, False)}
-STRATEGIES = ("default", "qei_plain", "qlogei", "qlognei", "composite", "sobol", "sobol_model", "random", "cma")
+STRATEGIES = ("default", "distance", "qei_plain", "qlogei", "qlognei", "sobol", "sobol_model", "random", "cma")
+#: the strategies whose model is the composite one (the campaign's default, calibrax.core.composite)
+COMPOSITE = ("default", "sobol_model")
 UNCONSTRAINED_SHARE = 0.8  # calibrax.core.answer's
 
 
@@ -198,60 +200,6 @@ def _model(x: np.ndarray, y: np.ndarray, threshold: float, plain: bool, seed: in
     return Kriging.fit(x, y, seed=seed, transform="log1p", noise_sd=noise_sd_from_threshold(threshold))
 
 
-class Composite:
-    """The composite model: per-feature Kriging models, the distance from their joint prediction."""
-
-    CANDIDATES = 2048
-    DRAWS = 128
-
-    def __init__(self, problem: Problem, xs: list[np.ndarray], sims: list[dict[str, float]], seed: int):
-        from calibrax.core.surrogate import Kriging
-
-        x = np.stack(xs)
-        self.problem = problem
-        self.models = {s: Kriging.fit(x, np.array([f[s] for f in sims]), seed=seed, transform="identity",
-                                      noise_sd=problem.surface.seed_sd[s]) for s in STEMS}
-        feats = problem.metric.evaluate_features(sims[:1], problem.replicates).features
-        self.target = {s: feats[f"{s}_exp"] for s in STEMS}
-        self.scale = {s: feats[f"{s}_scale"] for s in STEMS}
-        self.rng = np.random.default_rng(seed)
-
-    def distance_draws(self, x: np.ndarray) -> np.ndarray:
-        """Draws of the distance of the features' mean at ``x`` (m, 2) → (DRAWS, m)."""
-        total = 0.0
-        for s, model in self.models.items():
-            mean, sd = model.latent(x)
-            f = mean + sd * self.rng.standard_normal((self.DRAWS, len(x)))
-            total = total + ((f - self.target[s]) / self.scale[s]) ** 2
-        return np.sqrt(total)
-
-    def predicted(self, x: np.ndarray) -> np.ndarray:
-        total = 0.0
-        for s, model in self.models.items():
-            mean, _ = model.latent(x)
-            total = total + ((mean - self.target[s]) / self.scale[s]) ** 2
-        return np.sqrt(total)
-
-    def propose(self, q: int, evaluated: np.ndarray, seed: int) -> np.ndarray:
-        from calibrax.plugins.builtin.acquisitions import sobol_points
-
-        cand = sobol_points(2, self.CANDIDATES, seed=seed)
-        best = float(self.predicted(evaluated).min())
-        ei = np.mean(np.maximum(best - self.distance_draws(cand), 0.0), axis=0)
-        chosen = []
-        for _ in range(q):
-            i = int(np.argmax(ei))
-            chosen.append(cand[i])
-            ei = ei * (1.0 - np.exp(-np.sum((cand - cand[i]) ** 2, axis=1) / (2 * 0.05**2)))
-        return np.stack(chosen)
-
-    def recommend(self) -> np.ndarray:
-        from calibrax.core.answer import grid
-
-        cand = grid(2)
-        return cand[int(np.argmin(self.predicted(cand)))]
-
-
 def _checkpoint(problem: Problem, n: int, rec: np.ndarray, claims: dict | None) -> tuple:
     x = rec.reshape(1, -1)
     return n, float(problem.noiseless(x)[0]), float(problem.against_experiment(x)[0]), claims
@@ -261,6 +209,7 @@ def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int,
     """Calibrate against ``problem`` with ``budget`` simulations in batches of ``q``."""
     from calibrax.core.acquisition import Observations
     from calibrax.core.answer import answer_from_model
+    from calibrax.core.composite import CompositeKriging
     from calibrax.plugins.builtin.acquisitions import sobol_points
     from calibrax.plugins.manager import get_manager
 
@@ -268,9 +217,9 @@ def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int,
     rng = np.random.default_rng(seed)  # this strategy's simulation noise
     trace = Trace()
     acquisition = None
-    if name in ("default", "qei_plain", "qlogei", "qlognei"):
-        acq = {"default": ("qei", {}), "qei_plain": ("qei", {"best_f": "observed"}), "qlogei": ("qlogei", {}),
-               "qlognei": ("qlognei", {})}[name]
+    if name in ("default", "distance", "qei_plain", "qlogei", "qlognei"):
+        acq = {"default": ("qei", {}), "distance": ("qei", {}), "qei_plain": ("qei", {"best_f": "observed"}),
+               "qlogei": ("qlogei", {}), "qlognei": ("qlognei", {})}[name]
         acquisition = get_manager().create("acquisition", acq[0], **acq[1])
     es = None
     if name == "cma":
@@ -280,31 +229,26 @@ def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int,
                                                          "verbose": -9})
     xs: list[np.ndarray] = []
     ys: list[float] = []
-    sims: list[dict[str, float]] = []
-    composite: list[Composite] = []
+    terms: list[dict] = []
 
     def simulate(batch: np.ndarray) -> None:
         for x, sim in zip(batch, problem.surface.draw(batch, rng)):
+            value = problem.metric.evaluate_features([sim], problem.replicates)
             xs.append(np.asarray(x, float))
-            ys.append(problem.distance([sim]))
-            sims.append(sim)
+            ys.append(float(value.value))
+            terms.append(value.terms())
 
     def recommend() -> tuple[np.ndarray, dict | None]:
         x, y = np.stack(xs), np.asarray(ys)
-        if name in ("default", "qlogei", "qlognei", "sobol_model"):
+        if name in ("default", "distance", "qlogei", "qlognei", "sobol_model"):
             t0 = time.perf_counter()
-            model = _model(x, y, problem.threshold, False, seed)
+            model = (CompositeKriging.fit(x, terms, y, seed=seed) if name in COMPOSITE
+                     else _model(x, y, problem.threshold, False, seed))
             answer = answer_from_model(model, sp, problem.threshold, 0.95, len(y))
             trace.overhead.append(time.perf_counter() - t0)
             return sp.to_unit(np.asarray([list(answer.params.values())]))[0], dict(answer.constrained)
         if name == "cma":
             return np.clip(np.asarray(es.result.xfavorite), 0, 1), None
-        if name == "composite":
-            t0 = time.perf_counter()
-            composite[:] = [Composite(problem, xs, sims, seed + len(xs))]
-            rec = composite[0].recommend()
-            trace.overhead.append(time.perf_counter() - t0)
-            return rec, None
         return x[int(np.argmin(y))], None
 
     if es is not None:
@@ -331,14 +275,11 @@ def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int,
             batch = rng.random((k, 2))
         elif name in ("sobol", "sobol_model"):
             batch = sobol_points(2, k, seed=seed, skip=len(xs))
-        elif name == "composite":
-            t0 = time.perf_counter()
-            batch = composite[0].propose(k, np.stack(xs), seed + len(xs))
-            trace.overhead.append(time.perf_counter() - t0)
         else:
             t0 = time.perf_counter()
             x, y = np.stack(xs), np.asarray(ys)
-            model = _model(x, y, problem.threshold, name == "qei_plain", seed + len(xs))
+            model = (CompositeKriging.fit(x, terms, y, seed=seed + len(xs)) if name in COMPOSITE
+                     else _model(x, y, problem.threshold, name == "qei_plain", seed + len(xs)))
             obs = Observations(x, y, np.full(len(y), np.nan))
             batch = acquisition.propose(model, sp, obs, k, seed=seed + len(xs))
             trace.overhead.append(time.perf_counter() - t0)

@@ -42,6 +42,25 @@ def test_qei_campaign_recovers_known_parameters(tmp_path):
     assert lo <= TRUE_MU <= hi and lo <= rec["sliding_friction"] <= hi, answer["ranges"]
 
 
+def test_composite_model_campaign_recovers_mu_and_stores_per_feature_models(tmp_path):
+    """``surrogate: {model: composite}`` (one GP per distance term, qEI on the distance of their joint
+    prediction): every batch proposes q = 2 points, the store keeps each feature's model, and the
+    answer is near the truth with the truth inside its plausible region."""
+    config = load_config(write_double_campaign(tmp_path, surrogate={"model": "composite"},
+                                               budget={"initial": 4, "iterations": 4}))
+    summary = run_campaign(config)
+    points = CampaignStore(config.store).points()
+    assert len(points) == 4 + 4 * 2 and summary.failed == 0
+    models = CampaignStore(config.store).models()
+    assert sorted(models) == [1, 2, 3, 4]
+    assert all(m["kernel"] == "composite_matern52_ard" and set(m["features"]) == {"cohesion", "aif"}
+               for m in models.values())
+    rec = summary.answer["params"]
+    assert abs(rec["sliding_friction"] - TRUE_MU) < 0.08, rec
+    lo, hi = summary.answer["ranges"]["sliding_friction"]
+    assert lo <= TRUE_MU <= hi
+
+
 def test_run_twice_resumes_without_repeating(tmp_path):
     path = write_double_campaign(tmp_path, budget={"initial": 4, "iterations": 1})
     first = calibrax_cli("run", str(path))

@@ -411,7 +411,8 @@ class Campaign:
         hyper = model.hyperparameters()
         n_pen = len(obs.y) - finished
         hyper.update({"penalised_failures": n_pen, "pending": 0 if x_pending is None else len(x_pending)})
-        self._emit("model", f"batch {batch}: Kriging on {len(obs.y)} points ({n_pen} failed, penalised; length scales "
+        kind = "composite Kriging (one GP per distance term)" if hyper.get("kernel", "").startswith("composite") else "Kriging"
+        self._emit("model", f"batch {batch}: {kind} on {len(obs.y)} points ({n_pen} failed, penalised; length scales "
                    f"{', '.join(f'{v:.3g}' for v in hyper['lengthscales'])}, noise {hyper['noise'] or 0.0:.3g}) → "
                    f"{cfg.acquisition} proposes {q} point(s)"
                    f"{f' beside {len(x_pending)} pending' if x_pending is not None else ''} "
@@ -563,7 +564,8 @@ def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
 def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int,
                        obs: Observations | None = None):
     """A :class:`~calibrax.core.surrogate.Kriging` model of the points' distances (penalised
-    failures included) with the options ``surrogate`` ({transform, noise}); None with < 2 points.
+    failures included) with the options ``surrogate`` ({model, transform, noise}); None with < 2
+    points. ``model: composite`` (the default) fits :func:`fit_composite_model` instead.
     ``noise: metric`` takes the noise prior from the metric's threshold
     (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
     the points' :func:`observations`, when the caller has them already."""
@@ -573,9 +575,28 @@ def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], see
     if len(obs.y) < 2:
         return None
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+    if surrogate.get("model", "composite") == "composite":
+        model = fit_composite_model(finished, [p for p in points if physically_failed(p)], seed)
+        if model is not None:
+            return model
     threshold, _ = _noise_threshold(finished)
     noise_sd = noise_sd_from_threshold(threshold) if surrogate.get("noise", "metric") == "metric" else None
     return Kriging.fit(obs.x, obs.y, seed=seed, transform=surrogate.get("transform", "log1p"), noise_sd=noise_sd)
+
+
+def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], seed: int):
+    """The :class:`~calibrax.core.composite.CompositeKriging` model of the finished points' distance
+    terms, ``failed`` (physically failed points) as penalties; None with fewer than 2 finished
+    points or when their metrics state no shared terms (the caller then falls back to the distance
+    model)."""
+    from calibrax.core.composite import CompositeKriging, composite_ready
+
+    terms = [p.metric.terms() for p in finished]
+    if len(finished) < 2 or not composite_ready(terms):
+        return None
+    return CompositeKriging.fit(np.stack([p.unit for p in finished]), terms,
+                                np.asarray([p.metric.value for p in finished]), seed=seed,
+                                failed_x=np.stack([p.unit for p in failed]) if failed else None)
 
 
 def load_answer(store: CampaignStore) -> Answer | None:

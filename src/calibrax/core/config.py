@@ -40,7 +40,8 @@ ROOT_KEYS = {
     "workdir": "folder for the simulations' work folders (default: next to the store)",
     "seed": "integer seed of the search and of the simulations",
     "seeds_per_point": "simulations (different seeds) per parameter point",
-    "surrogate": "{transform: log1p or identity, noise: metric or fitted} of the Kriging model",
+    "surrogate": "{model: composite or distance, transform: log1p or identity, noise: metric or fitted}: the "
+                 "Kriging model (transform and noise: the distance model's)",
     "enqueue": "a list of {parameter: value} points to simulate first, before the Sobol design",
     "warm_start": "an earlier campaign's store (same simulator, cell and parameters) whose finished "
                   "simulations a new store starts with",
@@ -49,8 +50,9 @@ ROOT_KEYS = {
 #: they hold them, so that a store made before the field existed still resumes
 ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None}
 #: the Kriging model's options and their defaults (calibrax.core.surrogate)
-SURROGATE_DEFAULTS = {"transform": "log1p", "noise": "metric"}
-SURROGATE_CHOICES = {"transform": ("log1p", "identity"), "noise": ("metric", "fitted")}
+SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
+SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),
+                     "noise": ("metric", "fitted")}
 REQUIRED = ("name", "simulator", "experiment", "parameters", "store")
 CELL_KEYS = {"preset", "procedure", "geometry", "numerics", "size_distribution", "fill_solid_fraction"}
 
@@ -423,6 +425,11 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     try:
         metric_obj = manager.create("metric", metric, **metric_options)
         metric_obj.scales(experiment) if hasattr(metric_obj, "scales") else None
+        asked = isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite"
+        if asked and not getattr(metric_obj, "states_terms", False):  # by default: the distance model stands in
+            raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
+                              f"(X_sim, X_exp, X_scale); metric {metric!r} does not: use model: distance, or the "
+                              "metric c_aif or robust")
         check_capabilities(manager.create("simulator", simulator), spec)
     except PluginError as exc:
         raise ConfigError("simulator", str(exc)) from None

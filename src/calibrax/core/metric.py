@@ -32,6 +32,36 @@ class MetricValue:
         """Whether the distance lies within the metric's noise threshold."""
         return bool(self.value <= self.threshold)
 
+    def terms(self) -> dict[str, DistanceTerm]:
+        """The distance's terms, {name: :class:`DistanceTerm`}, where the metric states them:
+        d = √Σ ((sim − exp)/scale)² over features named ``X_sim``, ``X_exp`` and ``X_scale`` (or
+        ``scale_X``), with ``X_sim_stderr`` as the simulated value's 1-σ noise where given. Empty
+        when the metric names no such terms (the composite model then cannot be used)."""
+        out = {}
+        for key, sim in self.features.items():
+            if not key.endswith("_sim"):
+                continue
+            name = key[: -len("_sim")]
+            exp = self.features.get(f"{name}_exp")
+            scale = self.features.get(f"{name}_scale", self.features.get(f"scale_{name}"))
+            if exp is None or scale is None:
+                continue
+            out[name] = DistanceTerm(float(sim), float(exp), float(scale),
+                                     float(self.features.get(f"{name}_sim_stderr", float("nan"))))
+        return out
+
+
+@dataclass(frozen=True)
+class DistanceTerm:
+    """One feature's part of a distance: the simulated value (the point's seeds pooled), the
+    experiment's, the scale it is divided by (same units) and the simulated value's 1-σ noise (NaN:
+    not stated)."""
+
+    sim: float
+    exp: float
+    scale: float
+    sim_stderr: float = float("nan")
+
 
 @runtime_checkable
 class Metric(Protocol):

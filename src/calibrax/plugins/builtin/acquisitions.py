@@ -69,6 +69,12 @@ class _BoTorchAcquisition(abc.ABC):
         return cand.detach().numpy().reshape(q, space.dim)
 
 
+def _objective(model):
+    """The model's MC objective (the composite model's −distance of the joint feature samples);
+    None for the distance model, whose single output is the objective."""
+    return getattr(model, "objective", None)
+
+
 class _ImprovementAcquisition(_BoTorchAcquisition):
     """An improvement criterion over an incumbent ``best_f``: the best posterior mean at the
     evaluated points (``posterior_mean``, default) or the best observation (``observed``)."""
@@ -94,7 +100,8 @@ class QExpectedImprovement(_ImprovementAcquisition):
     def build(self, model, observations, pending, sampler):
         from botorch.acquisition import qExpectedImprovement
 
-        return qExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler, X_pending=pending)
+        return qExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler, X_pending=pending,
+                                    objective=_objective(model))
 
 
 class QLogExpectedImprovement(_ImprovementAcquisition):
@@ -106,7 +113,7 @@ class QLogExpectedImprovement(_ImprovementAcquisition):
         from botorch.acquisition.logei import qLogExpectedImprovement
 
         return qLogExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler,
-                                       X_pending=pending)
+                                       X_pending=pending, objective=_objective(model))
 
 
 class QNoisyExpectedImprovement(_BoTorchAcquisition):
@@ -118,7 +125,7 @@ class QNoisyExpectedImprovement(_BoTorchAcquisition):
         from botorch.acquisition import qNoisyExpectedImprovement
 
         return qNoisyExpectedImprovement(model.model, X_baseline=model.train_x, sampler=sampler,
-                                         X_pending=pending, prune_baseline=True)
+                                         X_pending=pending, prune_baseline=True, objective=_objective(model))
 
 
 class QLogNoisyExpectedImprovement(_BoTorchAcquisition):
@@ -130,7 +137,7 @@ class QLogNoisyExpectedImprovement(_BoTorchAcquisition):
         from botorch.acquisition.logei import qLogNoisyExpectedImprovement
 
         return qLogNoisyExpectedImprovement(model.model, X_baseline=model.train_x, sampler=sampler,
-                                            X_pending=pending, prune_baseline=True)
+                                            X_pending=pending, prune_baseline=True, objective=_objective(model))
 
 
 class SobolAcquisition:

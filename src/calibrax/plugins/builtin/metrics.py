@@ -44,6 +44,8 @@ class CAifMetric:
     """
 
     name = "c_aif"
+    #: its features name the distance's terms (MetricValue.terms): the composite model can use it
+    states_terms = True
     OPTIONS = {"scale_cohesion_pa": float, "scale_aif_deg": float, "against": str}
 
     def __init__(self, scale_cohesion_pa: float | None = None, scale_aif_deg: float | None = None,
@@ -138,6 +140,7 @@ class RobustMetric:
     """
 
     name = "robust"
+    states_terms = True
     STEMS = ("peak_ratio", "preshear_ratio", "shear_end_ratio", "bulk_density")
     DEFAULT = ("peak_ratio", "preshear_ratio", "bulk_density")
     OPTIONS = {"features": list, "seed_spread": dict, "seed_spread_seeds": int}
@@ -220,6 +223,7 @@ class RobustMetric:
             total += z * z
             dofs.append(nu)
             feats[f"{name}_sim"], feats[f"{name}_exp"], feats[f"{name}_scale"] = sim[name].mean, e.mean, scale
+            feats[f"{name}_sim_stderr"] = math.sqrt(var_sim)
         if not dofs:
             return MetricValue(math.nan, math.nan, feats)
         d = math.sqrt(total)
