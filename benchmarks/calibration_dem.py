@@ -55,8 +55,8 @@ def make_experiment(target: int, preset: str, folder: Path, workers: int) -> Pat
     out = folder / "experiment.yaml"
     if out.is_file():
         return out
-    spec = ShearCellSpec.preset(preset).replace(material={**MATERIAL, **truth(target)},
-                                                 numerics={"threads": 1})
+    material = {k: v for k, v in {**MATERIAL, **truth(target)}.items() if k != "radius"}
+    spec = ShearCellSpec.preset(preset, radius=MATERIAL["radius"], material=material, numerics={"threads": 1})
     return write_pseudo_experiment(spec, "numba_dem", out, replicates=3,
                                    first_seed=EXPERIMENT_SEED_BASE + 50_000 + 10 * target,
                                    cell_words=f"the {preset} preset", workers=workers)
@@ -115,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         print(f"error: --strategies: unknown {bad}; allowed: {list(STRATEGIES)}", file=sys.stderr)
         return 2
-    from calibrax import load_config, run_campaign
+    from calibrax import CampaignStore, load_config, run_campaign
 
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     rows = []
@@ -140,17 +140,21 @@ def main(argv: list[str] | None = None) -> int:
                 else:
                     break
             final = errors[-1][1]
-            rows.append((strategy, target, reached, final[0], final[1]))
+            answer = CampaignStore(config.store).answer() if strategy != "sobol" else None
+            claims = ", ".join(k for k, v in answer["constrained"].items() if v) or "none" if answer else "—"
+            rows.append((strategy, target, reached, final[0], final[1], claims))
             print(f"  {strategy}: μs error ≤ {args.tolerance} from {reached} simulations; final error E "
-                  f"{final[0]:.3f}, μs {final[1]:.3f} (unit cube); per batch μs error "
-                  + " ".join(f"{e[1]:.2f}" for _, e in errors), flush=True)
+                  f"{final[0]:.3f}, μs {final[1]:.3f} (unit cube); the answer calls constrained: {claims}; "
+                  "per batch μs error " + " ".join(f"{e[1]:.2f}" for _, e in errors), flush=True)
     print(f"\n{args.targets} targets, budget {args.budget}, {args.preset}; {time.perf_counter() - t0:.0f} s\n")
-    print("| strategy | targets | simulations to μs error ≤ tolerance (median, each) | final E error | final μs error |")
-    print("|---|---|---|---|---|")
+    print("| strategy | targets | simulations to μs error ≤ tolerance (median, each) | final E error | final μs error | "
+          "called constrained (each) |")
+    print("|---|---|---|---|---|---|")
     for strategy in names:
         mine = [r for r in rows if r[0] == strategy]
         print(f"| {strategy} | {len(mine)} | {np.median([r[2] for r in mine]):.3g} ({', '.join(str(r[2]) for r in mine)}) | "
-              f"{np.median([r[3] for r in mine]):.3f} | {np.median([r[4] for r in mine]):.3f} |")
+              f"{np.median([r[3] for r in mine]):.3f} | {np.median([r[4] for r in mine]):.3f} | "
+              f"{'; '.join(r[5] for r in mine)} |")
     return 0
 
 

@@ -5,7 +5,9 @@ On noisy DEM the best *observed* distance is a lucky seed (issue 18: the "best" 
 Kriging model instead:
 
 * the **recommendation** is the minimiser of the posterior mean of the (transformed) distance over
-  the box: where the model expects a new simulation to land closest to the experiment;
+  the box (for :class:`~calibrax.core.composite.CompositeKriging`, the expected distance of the
+  features' joint prediction): where the model expects a new simulation to land closest to the
+  experiment;
 * the **plausible region** is where the model cannot rule out that a simulation lands within the
   metric's noise threshold T (the distance the true parameters stay below 95 % of the time): the
   points x with m(x) − 2 s(x) ≤ t(T), m and s the posterior mean and s.d. of the transformed
