@@ -14,7 +14,7 @@ from calibrax.core.answer import answer_from_model
 from calibrax.core.composite import CompositeKriging, composite_ready
 from calibrax.core.metric import DistanceTerm, MetricValue
 from calibrax.core.parameters import Parameter, ParameterSpace
-from calibrax.plugins.builtin.acquisitions import QExpectedImprovement
+from calibrax.plugins.builtin.acquisitions import QExpectedImprovement, QLogNoisyExpectedImprovement
 from calibrax.core.acquisition import Observations
 
 SPACE = ParameterSpace((Parameter("youngs_modulus", 5e9, 5e10, log=True), Parameter("sliding_friction", 0.1, 0.9)))
@@ -72,10 +72,11 @@ def test_the_answer_locates_the_crossing_and_leaves_the_blind_parameter_open():
     assert answer.constrained == {"youngs_modulus": False, "sliding_friction": True}
 
 
-def test_qei_over_the_composite_objective_proposes_two_points_near_the_valley():
+@pytest.mark.parametrize("acquisition", [QExpectedImprovement, QLogNoisyExpectedImprovement])
+def test_qei_over_the_composite_objective_proposes_two_points_near_the_valley(acquisition):
     model = _fit()
     obs = Observations(model.train_x.numpy(), -model.train_y.numpy().ravel(), np.full(12, np.nan))
-    batch = QExpectedImprovement().propose(model, SPACE, obs, 2, seed=3)
+    batch = acquisition().propose(model, SPACE, obs, 2, seed=3)
     assert batch.shape == (2, 2) and np.all((batch >= 0) & (batch <= 1))
     assert np.all(np.abs(batch[:, 1] - 0.3) < 0.25), batch
 

@@ -128,6 +128,7 @@ def test_bad_enqueued_points_name_the_key(tmp_path, enqueue, key):
 
 @pytest.mark.parametrize("surrogate, key", [({"transform": "log"}, "surrogate.transform"),
                                             ({"noise": "none"}, "surrogate.noise"),
+                                            ({"model": "kriging"}, "surrogate.model"),
                                             ({"kernel": "rbf"}, "surrogate.kernel")])
 def test_bad_surrogate_options_name_the_key(tmp_path, surrogate, key):
     from calibrax import load_config
