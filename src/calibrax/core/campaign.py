@@ -420,21 +420,17 @@ class Campaign:
         return unit, cfg.acquisition, hyper
 
     def _without_repeats(self, unit: np.ndarray, points: list[PointRecord], batch: int) -> np.ndarray:
-        """Replace any proposal within DUPLICATE_TOL of an existing point (or of another proposal)."""
-        taken = [p.unit for p in points]
-        out = []
-        spare = iter(sobol_points(self.config.space.dim, 256, seed=self.config.seed + 1, skip=len(points) + batch))
-        for row in np.atleast_2d(unit):
-            if taken and np.min(np.max(np.abs(np.stack(taken) - row), axis=1)) < DUPLICATE_TOL:
-                self._emit("repeat", f"batch {batch}: proposal repeats an existing point; replaced by a "
-                           "space-filling point", level=logging.WARNING, batch=batch)
-                for candidate in spare:
-                    if np.min(np.max(np.abs(np.stack(taken) - candidate), axis=1)) >= 0.05:
-                        row = candidate
-                        break
-            taken.append(row)
-            out.append(row)
-        return np.stack(out)
+        """Screen the proposals for repeats (:func:`screen_repeats`) and log each decision."""
+        spare = sobol_points(self.config.space.dim, 256, seed=self.config.seed + 1, skip=len(points) + batch)
+        rows, notes = screen_repeats(unit, points, spare)
+        for kind, text in notes:
+            if kind == "replicate":
+                self._emit("replicate", f"batch {batch}: {text}; it runs as a replicate there, with its own seed "
+                           "(the model expects one more seed at that point to pay)", batch=batch)
+            else:
+                self._emit("repeat", f"batch {batch}: {text}; replaced by a space-filling point",
+                           level=logging.WARNING, batch=batch)
+        return rows
 
     def _add_batch(self, store: CampaignStore, executor, batch: int, unit: np.ndarray, source: str,
                    model: dict | None) -> None:
@@ -551,6 +547,35 @@ def settled(answers: list[Answer], space, patience: int) -> bool:
         if np.max(np.abs(ua - ub)) >= SETTLED_MOVE or abs(a.region_share - b.region_share) >= SETTLED_SHARE:
             return False
     return True
+
+
+def screen_repeats(unit: np.ndarray, points: list[PointRecord],
+                   spare: np.ndarray) -> tuple[np.ndarray, list[tuple[str, str]]]:
+    """Proposals ``unit`` shape (q, d) screened against the campaign's ``points``: one within
+    :data:`DUPLICATE_TOL` (max norm, unit cube) of a point that failed physically is replaced by
+    the first of the ``spare`` points (shape (m, d)) at least 0.05 from every point and proposal,
+    so a crash is never proposed again; one that repeats a finished, pending or just-proposed point
+    is kept: a noise-aware model asks for another seed there, and it runs as a replicate (a new
+    point at the same parameters, its own seed). Returns the rows (q, d) and, per repeat,
+    ("replicate" or "replaced", what it repeated)."""
+    failed = [p.unit for p in points if physically_failed(p)]
+    others = [(p.unit, f"point {p.id}") for p in points if not physically_failed(p)]
+    out, notes = [], []
+    for row in np.atleast_2d(unit):
+        near = lambda ref: np.max(np.abs(ref - row)) < DUPLICATE_TOL  # noqa: E731
+        crash = next((u for u in failed if near(u)), None)
+        if crash is not None:
+            notes.append(("replaced", "proposal repeats a point that failed"))
+            taken = np.stack([p.unit for p in points] + out)
+            row = next((c for c in spare if np.min(np.max(np.abs(taken - c), axis=1)) >= 0.05), row)
+        else:
+            twin = next((name for u, name in others if near(u)), None)
+            if twin is None and any(near(u) for u in out):
+                twin = "another proposal of this batch"
+            if twin is not None:
+                notes.append(("replicate", f"proposal repeats {twin}"))
+        out.append(np.asarray(row, dtype=float))
+    return np.stack(out), notes
 
 
 def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
