@@ -364,6 +364,16 @@ def table(results: dict[str, list[Score]], budget: int) -> str:
     return "\n".join(lines)
 
 
+def strategy_names(text: str, allowed: tuple[str, ...]) -> list[str] | None:
+    """The comma-separated ``--strategies``, or None (with the error printed) when one is unknown."""
+    names = [s for s in text.split(",") if s]
+    bad = [s for s in names if s not in allowed]
+    if bad:
+        print(f"error: --strategies: unknown {bad}; allowed: {list(allowed)}", file=sys.stderr)
+        return None
+    return names
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog="Problem and scoring: see the module docstring (benchmarks/calibration.py).")
@@ -375,10 +385,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="processes")
     ap.add_argument("--design", default=str(DESIGN), help="the DEM design's CSV")
     args = ap.parse_args(argv)
-    names = [s for s in args.strategies.split(",") if s]
-    bad = [s for s in names if s not in STRATEGIES]
-    if bad:
-        print(f"error: --strategies: unknown {bad}; allowed: {list(STRATEGIES)}", file=sys.stderr)
+    names = strategy_names(args.strategies, STRATEGIES)
+    if names is None:
         return 2
     surface = _surface(args.design)
     print(f"surface from {args.design}: seed s.d. " + ", ".join(f"{k} {v:.3g}" for k, v in surface.seed_sd.items()))

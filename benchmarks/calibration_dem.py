@@ -79,10 +79,10 @@ def campaign_file(target: int, strategy: str, preset: str, budget: int, workers:
 
 
 def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
-    """(simulations, the recommendation on the unit cube) after each batch, from the store."""
+    """(simulations, the recommendation on the unit cube) after each batch, from the store: the
+    campaign's own answer on its first n points (Sobol: the best observation)."""
     from calibrax import CampaignStore
-    from calibrax.core.answer import answer_from_model
-    from calibrax.core.campaign import _noise_threshold, fit_distance_model
+    from calibrax.core.campaign import campaign_answer
 
     points = sorted(CampaignStore(config.store).points(), key=lambda p: p.id)
     done = [p for p in points if p.metric is not None and np.isfinite(p.metric.value)]
@@ -92,9 +92,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
         if strategy == "sobol":
             out.append((n, min(first, key=lambda p: p.metric.value).unit))
             continue
-        model = fit_distance_model(first, config.surrogate, config.seed)
-        threshold, rate = _noise_threshold(first)
-        answer = answer_from_model(model, config.space, threshold, rate, n)
+        answer = campaign_answer(first, config)
         out.append((n, config.space.to_unit(np.asarray([list(answer.params.values())]))[0]))
     return out
 
@@ -110,10 +108,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tolerance", type=float, default=0.05, help="μs error on the unit cube that counts as found")
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "calibration-dem", help="output folder")
     args = ap.parse_args(argv)
-    names = [s for s in args.strategies.split(",") if s]
-    bad = [s for s in names if s not in STRATEGIES]
-    if bad:
-        print(f"error: --strategies: unknown {bad}; allowed: {list(STRATEGIES)}", file=sys.stderr)
+    from calibration import strategy_names  # benchmarks/calibration.py, beside this file
+
+    names = strategy_names(args.strategies, STRATEGIES)
+    if names is None:
         return 2
     from calibrax import CampaignStore, load_config, run_campaign
 

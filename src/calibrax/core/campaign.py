@@ -306,23 +306,16 @@ class Campaign:
         new = [r for r in rows if not len(taken) or np.min(np.max(np.abs(taken - r), axis=1)) >= DUPLICATE_TOL]
         return np.stack(new) if new else np.zeros((0, cfg.space.dim))
 
-    def fit_model(self, points: list[PointRecord], seed: int):
-        """The Kriging model of the distance over the finished (and penalised failed) points, with
-        the campaign's surrogate options; None with fewer than 2 points."""
-        return fit_distance_model(points, self.config.surrogate, seed)
-
     def _answer(self, store: CampaignStore, points: list[PointRecord] | None = None, model=None) -> None:
         """Store (and log) the campaign's answer from ``model`` fitted on ``points`` (default: refit
         on every point in the store); nothing with fewer than 3 finished points."""
         points = store.points() if points is None else points
-        finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-        if len(finished) < 3:
+        answer = campaign_answer(points, self.config, model)
+        if answer is None:
             return
-        model = model if model is not None else self.fit_model(points, seed=self.config.seed)
-        threshold, rate = _noise_threshold(finished)
-        answer = answer_from_model(model, self.config.space, threshold, rate, len(finished))
+        n = answer.n_points
         store.write_answer(answer.to_dict())
-        self._emit("answer", f"answer from {len(finished)} points: {answer.summary()}", answer=answer.to_dict())
+        self._emit("answer", f"answer from {n} points: {answer.summary()}", answer=answer.to_dict())
         self._answers.append(answer)
 
     def _check_settled(self) -> None:
@@ -558,8 +551,9 @@ def screen_repeats(unit: np.ndarray, points: list[PointRecord],
     is kept: a noise-aware model asks for another seed there, and it runs as a replicate (a new
     point at the same parameters, its own seed). Returns the rows (q, d) and, per repeat,
     ("replicate" or "replaced", what it repeated)."""
-    failed = [p.unit for p in points if physically_failed(p)]
-    others = [(p.unit, f"point {p.id}") for p in points if not physically_failed(p)]
+    crashed = [physically_failed(p) for p in points]
+    failed = [p.unit for p, c in zip(points, crashed) if c]
+    others = [(p.unit, f"point {p.id}") for p, c in zip(points, crashed) if not c]
     out, notes = [], []
     for row in np.atleast_2d(unit):
         near = lambda ref: np.max(np.abs(ref - row)) < DUPLICATE_TOL  # noqa: E731
@@ -622,6 +616,18 @@ def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], 
     return CompositeKriging.fit(np.stack([p.unit for p in finished]), terms,
                                 np.asarray([p.metric.value for p in finished]), seed=seed,
                                 failed_x=np.stack([p.unit for p in failed]) if failed else None)
+
+
+def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=None) -> Answer | None:
+    """The campaign's :class:`Answer` from ``points``: ``model`` (default: fitted on the points with
+    the campaign's surrogate options and seed) read against the metric's noise threshold; None with
+    fewer than 3 finished points."""
+    finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+    if len(finished) < 3:
+        return None
+    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed)
+    threshold, rate = _noise_threshold(finished)
+    return answer_from_model(model, config.space, threshold, rate, len(finished))
 
 
 def load_answer(store: CampaignStore) -> Answer | None:
