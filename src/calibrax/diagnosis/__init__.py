@@ -14,12 +14,28 @@ API::
 
 from __future__ import annotations
 
-from calibrax.diagnosis.design import Budget
-from calibrax.diagnosis.effects import Effect, EffectParameter, TruncatedNormalPrior, UniformPrior
-from calibrax.diagnosis.run import Calibrated, Diagnosis, diagnose
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from calibrax.diagnosis.design import Budget
+    from calibrax.diagnosis.effects import Effect, EffectParameter, TruncatedNormalPrior, UniformPrior
+    from calibrax.diagnosis.run import Calibrated, Diagnosis, diagnose
 
 __all__ = ["Budget", "Calibrated", "Diagnosis", "Effect", "EffectParameter", "TruncatedNormalPrior", "UniformPrior",
            "diagnose", "effects_by_name"]
+
+#: the public names and their modules, imported on first use (PEP 562): every simulation process
+#: loads the effect plugins of ``calibrax.diagnosis.effects``, and the rest of the diagnosis (SciPy's
+#: statistics among it, about a second) is not needed there
+_LAZY = {"Budget": "design", "Effect": "effects", "EffectParameter": "effects", "TruncatedNormalPrior": "effects",
+         "UniformPrior": "effects", "Calibrated": "run", "Diagnosis": "run", "diagnose": "run"}
+
+
+def __getattr__(name: str) -> object:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"calibrax.diagnosis.{_LAZY[name]}"), name)
 
 
 def effects_by_name(names: list[str] | None = None) -> list[Effect]:

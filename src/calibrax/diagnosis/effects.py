@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
-from scipy import stats
 
 from calibrax.plugins.hookspecs import hookimpl
 
@@ -82,6 +81,8 @@ class TruncatedNormalPrior:
     why: str = ""
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import stats  # here, not at import: every simulation process loads the effects
+
         a, b = (self.low - self.mean) / self.sd, (self.high - self.mean) / self.sd
         return stats.truncnorm.ppf(np.clip(u, 1e-12, 1 - 1e-12), a, b, loc=self.mean, scale=self.sd)
 

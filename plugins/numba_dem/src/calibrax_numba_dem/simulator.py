@@ -5,12 +5,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numba
 from calibrax.core.sheartest import Provenance, ShearCellSpec, ShearTestResult
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
-from .procedure import RunLog, ShearTestDriver, new_logger
+
+# Numba and the engine are imported by the methods that use them: every simulation process loads
+# every registered plugin, and one that runs another backend need not pay for Numba's import
 
 LOG_NAME = "numba_dem.log"
 
@@ -31,11 +32,17 @@ class NumbaDEMSimulator:
 
     def version(self) -> str:
         """``numba_dem <version> (numba <version>)``."""
+        import numba
+
         return f"numba_dem {__version__} (numba {numba.__version__})"
 
     def simulate(self, spec: ShearCellSpec, workdir: Path) -> ShearTestResult:
         """Run the whole test and return its result; raise SpecError before any work on a bad
         spec, SimulationFailed (with the log tail) on NaN, escape or blow-up."""
+        import numba
+
+        from .procedure import RunLog, ShearTestDriver, new_logger
+
         spec.validate()
         threads = spec.numerics.threads
         if threads > numba.config.NUMBA_NUM_THREADS:
