@@ -1,4 +1,5 @@
-# The two commands: `make run` (set up, then a real calibration campaign) and `make test`.
+# The two commands: `make run` (set up, then a real calibration campaign) and `make test` (the fast
+# tier, on every change); `make test-all` runs the full tier (README, "Tests").
 # Set-up installs only what is missing: Debian's liggghts and yade, a .venv with the CPU torch
 # wheel (pinned so that pip does not fetch CUDA builds), calibrax and its builtin backends.
 
@@ -10,18 +11,28 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 TORCH := torch==2.13.0
 # Numba's cache is checked against each kernel's own file only, not the files it inlines from (a
 # change to contact.py leaves engine.py's cached kernels stale), so the cache is keyed by a hash of
-# all of numba_dem's sources
-NUMBA_SRC_HASH := $(shell cat plugins/numba_dem/src/calibrax_numba_dem/*.py | sha1sum | cut -c1-12)
+# all of numba_dem's sources (cache_key.py, standard library only; tests/conftest.py uses the same)
+NUMBA_SRC_HASH := $(shell python3 plugins/numba_dem/src/calibrax_numba_dem/cache_key.py)
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache/$(NUMBA_SRC_HASH)
+# pytest-xdist workers of the test tiers (the machines CI uses have 2 cores); each module runs on one
+# worker (its module-scoped fixtures run once), in the order collected (the integration tests, the
+# longest, first); the simulation bank runs beside them and serves both (tests/bank.py)
+TEST_WORKERS ?= 2
+PYTEST := $(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder --durations=25
 
-.PHONY: run test setup engines clean-runs
+.PHONY: run test test-all setup engines clean-runs
 
 run: setup
 	$(VENV)/bin/calibrax run examples/quickstart.yaml
 	$(VENV)/bin/calibrax status runs/quickstart.h5
 
+# the fast tier: every test not marked slow, each engine still running a whole shear test
 test: setup
-	$(PY) -m pytest -q --durations=25
+	$(PYTEST) --tier fast
+
+# the full tier: everything (the engines' campaigns and physics, the end-to-end studies)
+test-all: setup
+	$(PYTEST) --tier all
 
 setup: engines $(STAMP) $(NUMBA_CACHE_DIR)/.compiled
 

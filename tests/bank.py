@@ -1,17 +1,30 @@
 """A session-wide bank of real-engine shear tests, run two at a time in the background.
 
-Each test module *declares* at import the simulations it needs (:func:`declare`); the session
-starts all the declared ones of the collected modules at its first test, in two spawned worker
-processes, most expensive first, and the tests that read them (:meth:`SimulationBank.result`) run
-last and wait only for their own. Single simulations that modules used to run one after another, each on one core, now run
-side by side and alongside the rest of the suite; one declared by two modules runs once.
+Each test module *declares* at import the simulations it may read (:func:`declare`), and each test
+that reads some names them with the ``bank`` marker (``@pytest.mark.bank(NAME, ...)``, or a module's
+``pytestmark``). When collection ends, the session submits the jobs of the *selected* tests only (a
+job of a test that ``-m`` or ``-k`` left out never runs) to two spawned worker processes, most
+expensive first; the tests that read them (:meth:`SimulationBank.result`) wait only for their own.
+A job that two tests or two modules name runs once.
+
+Under pytest-xdist the session's processes share one bank through a folder: the first process to
+finish collecting owns it (runs the jobs, writes each outcome there), the others read the outcomes
+from it; the owner waits for all of its jobs before it exits.
+
+Every shear test the bank finishes is recorded (backend, engine version, wall time) in the session
+folder's ``engine-runs.jsonl``: the test tiers check from it that every engine really ran
+(``pytest --tier``, tests/conftest.py).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import multiprocessing
+import os
+import pickle
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,54 +68,158 @@ def _simulate(job: Job, workdir: str) -> ShearTestResult:
     return get_manager().create("simulator", job.backend).simulate(job.spec, Path(workdir))
 
 
-class SimulationBank:
-    """Runs the declared jobs in ``workers`` spawned processes, each in its own folder under
-    ``root`` (kept, so that tests can read the engines' input and log files)."""
+#: the session folder's file of finished shear tests (JSON lines)
+ENGINE_RUNS = "engine-runs.jsonl"
 
-    def __init__(self, root: Path, workers: int = 2):
-        self.root = Path(root)
+
+def record_engine_run(session: Path, name: str, result: ShearTestResult) -> None:
+    """Append one finished shear test to the session folder's :data:`ENGINE_RUNS`: the job's name,
+    the backend, the engine's own version string, its wall time (s) and particle count."""
+    prov = result.provenance
+    line = json.dumps({"job": name, "backend": prov.backend, "engine_version": prov.engine_version,
+                       "wall_time": prov.wall_time, "particles": prov.particle_count})
+    with open(Path(session) / ENGINE_RUNS, "a", encoding="utf-8") as fh:  # one short line: appends do not interleave
+        fh.write(line + "\n")
+
+
+def read_engine_runs(session: Path) -> list[dict]:
+    """The records :func:`record_engine_run` appended in the session folder ([] if none)."""
+    path = Path(session) / ENGINE_RUNS
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+class SimulationBank:
+    """The ``selected`` declared jobs of one session, shared by its processes through the folder
+    ``session`` (``bank/`` in it: the owner, each job's work folder and outcome). The owner runs
+    them in ``workers`` spawned processes, each in its own work folder (kept, so that tests can read
+    the engines' input and log files)."""
+
+    def __init__(self, session: Path, selected: set[str], workers: int = 2):
+        unknown = sorted(set(selected) - set(JOBS))
+        if unknown:
+            raise KeyError(f"bank job(s) {unknown} named by a bank marker were never declared "
+                           "(declare them at module level with tests.bank.declare)")
+        self.session = Path(session)
+        self.folder = self.session / "bank"
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.selected = set(selected)
         self.workers = workers
         self._pool: cf.ProcessPoolExecutor | None = None
         self._futures: dict[str, cf.Future] = {}
 
+    @property
+    def owner(self) -> bool:
+        """Whether this process runs the jobs."""
+        return self._pool is not None
+
     def start(self) -> None:
-        """Submit every declared job, most expensive first (once)."""
-        if self._pool is not None:
+        """Submit every selected job, most expensive first, unless another process of the session
+        already owns the bank (once; nothing if none is selected)."""
+        if self._pool is not None or not self.selected:
             return
+        try:
+            os.close(os.open(self.folder / "owner", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return  # another process of this session runs the jobs
         self._pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
-        for name, job in sorted(JOBS.items(), key=lambda item: -item[1].cost):
-            self._submit(name, job)
+        for name in sorted(self.selected, key=lambda n: (-JOBS[n].cost, n)):
+            self._submit(name, JOBS[name])
+
+    def _file(self, name: str, suffix: str) -> Path:
+        return self.folder / (name.replace("/", "__") + suffix)
 
     def _submit(self, name: str, job: Job) -> None:
-        workdir = tempfile.mkdtemp(prefix=name.replace("/", "-") + "-", dir=self.root)
-        self._futures[name] = self._pool.submit(_simulate, job, workdir)
-        self._futures[name].workdir = Path(workdir)
+        workdir = tempfile.mkdtemp(prefix=name.replace("/", "-") + "-", dir=self.folder)
+        _write_atomically(self._file(name, ".workdir"), workdir.encode())
+        future = self._pool.submit(_simulate, job, workdir)
+        future.add_done_callback(lambda f: self._publish(name, f))
+        self._futures[name] = future
+
+    def _publish(self, name: str, future: cf.Future) -> None:
+        """Write a finished job's outcome for every process of the session (the pool's thread)."""
+        if future.cancelled():
+            return
+        error = future.exception()
+        outcome = ("error", error) if error is not None else ("ok", future.result())
+        try:
+            data = pickle.dumps(outcome)
+        except Exception as exc:  # noqa: BLE001 — an error that does not pickle still reaches the reader
+            data = pickle.dumps(("error", RuntimeError(f"bank job {name} failed: {error!r} ({exc})")))
+        _write_atomically(self._file(name, ".outcome"), data)
+        if error is None:
+            record_engine_run(self.session, name, future.result())
 
     def result(self, name: str) -> ShearTestResult:
-        """The result of the declared job ``name`` (waits for it; re-raises its error)."""
-        return self._future(name).result()
+        """The result of the selected job ``name`` (waits for it; re-raises its error)."""
+        self._check(name)
+        if name in self._futures:
+            return self._futures[name].result()
+        path = self._file(name, ".outcome")
+        while not path.is_file():
+            time.sleep(0.5)
+        kind, value = pickle.loads(path.read_bytes())
+        if kind == "error":
+            raise value
+        return value
 
     def workdir(self, name: str) -> Path:
         """The folder the job ``name`` ran in."""
-        return self._future(name).workdir
+        self._check(name)
+        path = self._file(name, ".workdir")
+        while not path.is_file():
+            time.sleep(0.2)
+        return Path(path.read_text())
 
-    def _future(self, name: str) -> cf.Future:
-        if name not in JOBS:
-            raise KeyError(f"bank job {name!r} was never declared (declare it at module level)")
-        self.start()
-        if name not in self._futures:  # declared after the start (a module imported late)
-            self._submit(name, JOBS[name])
-        return self._futures[name]
+    def _check(self, name: str) -> None:
+        if name not in self.selected:
+            raise KeyError(f"bank job {name!r} is read by a test that does not name it: mark the test "
+                           f"(or its module) with @pytest.mark.bank({name!r}), so that the session runs it")
 
-    def close(self) -> None:
-        """Cancel what has not started and stop the workers."""
-        if self._pool is not None:
-            for process in list(getattr(self._pool, "_processes", {}).values()):
-                process.terminate()
-            self._pool.shutdown(wait=False, cancel_futures=True)
+    def close(self, wait: bool = True) -> None:
+        """The owner: wait for every job (other processes may still read them), or with
+        ``wait=False`` cancel what has not started and stop the workers."""
+        if self._pool is None:
+            return
+        if wait:
+            self._pool.shutdown(wait=True)
+            return
+        for process in list(getattr(self._pool, "_processes", {}).values()):
+            process.terminate()
+        self._pool.shutdown(wait=False, cancel_futures=True)
 
 
 # ----------------------------------------------------------------------------- shared declarations
+#: The smoke test: the ``tiny`` cell (577 particles) and the whole procedure (pour, consolidation,
+#: four preshears and shear steps, the unloads and settles between them) at the cheapest settings
+#: that still run every phase of an engine's script: rotations of 0.02 rad, a soft material
+#: (E = 1 GPa: a 2.9× larger time step than Table 1's 25 GPa) and 0.2 Δt_crit. Its peaks are
+#: the elastic rise of each window, not the powder's strength: structure is checked on it, physics
+#: on the ``tiny`` runs. Measured alone on one core: numba_dem ≈ 6 s, LIGGGHTS ≈ 15 s, YADE ≈ 60 s.
+SMOKE_MATERIAL = {"youngs_modulus": 1.0e9}
+SMOKE_PROCEDURE = {"preshear_rotation": 0.02, "shear_rotation": 0.02, "settle_time": 0.002, "peak_window": 0.01}
+SMOKE_NUMERICS = {"dt_fraction": 0.2, "threads": 1}
+
+
+def smoke_spec(seed: int = 0) -> ShearCellSpec:
+    """The smoke test's spec (:data:`SMOKE_PROCEDURE`) at ``seed``."""
+    return ShearCellSpec.preset("tiny").replace(material=SMOKE_MATERIAL, procedure=SMOKE_PROCEDURE,
+                                                numerics={**SMOKE_NUMERICS, "seed": seed})
+
+
+def declare_smoke(backend: str, tag: str = "smoke") -> str:
+    """Declare the smoke test on ``backend`` as ``{backend}/{tag}/s0``; another ``tag`` runs the
+    same spec again (numba_dem's determinism check)."""
+    return declare(f"{backend}/{tag}/s0", backend, smoke_spec())
+
+
 #: half the ``tiny`` preset's rotations: enough for the base slip (read over each window's second
 #: half), not for a steady state
 SHORT_ROTATIONS = {"preshear_rotation": 0.06, "shear_rotation": 0.06}

@@ -1,23 +1,57 @@
-"""Shared fixtures: the analytic TEST DOUBLE campaign set-up (core tests only)."""
+"""Shared fixtures: the analytic TEST DOUBLE campaign set-up (core tests only), the session's bank of
+real-engine shear tests (tests/bank.py), and the test tiers.
+
+The tiers (README, "Tests"):
+
+- ``pytest --tier fast`` (``make test``): every test not marked ``slow``; each of the three engines
+  still runs a whole shear test (the bank's smoke tests), and the session fails if one of them did
+  not finish a real shear test, whatever else passed.
+- ``pytest --tier all`` (``make test-all``): everything, with the same check.
+- a bare ``pytest`` runs what it is given, with no check.
+
+Markers: ``slow`` (the full tier only), ``numba_dem``, ``liggghts``, ``yade`` (a test of that
+backend; ``pytest -m yade`` runs every YADE test), ``bank(NAME, ...)`` (reads these bank jobs).
+"""
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _default_numba_cache() -> str:
+    """``.numba_cache/<key of numba_dem's sources>``, the folder ``make`` gives NUMBA_CACHE_DIR, so
+    that a bare ``pytest`` uses the kernels ``make setup`` compiled (and never stale ones)."""
+    path = ROOT / "plugins/numba_dem/src/calibrax_numba_dem/cache_key.py"
+    spec = importlib.util.spec_from_file_location("_numba_dem_cache_key", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return str(ROOT / ".numba_cache" / module.cache_key())
+
+
+# All set before Numba is imported (and inherited by the simulations' processes).
+os.environ.setdefault("NUMBA_CACHE_DIR", _default_numba_cache())
 # The thread-count determinism test of numba_dem compares 1 and 2 threads; Numba caps its threads
-# at NUMBA_NUM_THREADS (the core count by default), so a 1-core machine gets 2 here (set before Numba
-# is imported).
+# at NUMBA_NUM_THREADS (the core count by default), so a 1-core machine gets 2 here.
 if (os.cpu_count() or 1) < 2:
     os.environ.setdefault("NUMBA_NUM_THREADS", "2")
+# Numba's OpenMP threads spin while they wait for work; beside the suite's other processes on 2
+# cores that made a 13 s in-process pour take 128 s (measured with two busy processes beside it)
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numpy as np  # noqa: E402
-import pytest
-import yaml
+import pytest  # noqa: E402
+import yaml  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.bank import JOBS, SMOKE_NUMERICS, SMOKE_PROCEDURE, SimulationBank, read_engine_runs  # noqa: E402
+
 DOUBLE_MODULE = "tests.doubles.analytic_simulator"
 TRUE_E, TRUE_MU = 2.0e10, 0.45
 
@@ -87,6 +121,9 @@ def calibrax_cli(*args: str, env: dict | None = None, timeout: float = 600) -> s
 
 
 PSEUDO_EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny-points.csv"
+#: The bank's smoke test (tests/bank.py) as a campaign's ``cell``: the whole procedure at rotations
+#: of 0.02 rad, about 6 s per simulation on numba_dem; E comes from the campaign's parameters.
+SMOKE_CELL = {"preset": "tiny", "procedure": {"preset": "paper", **SMOKE_PROCEDURE}, "numerics": dict(SMOKE_NUMERICS)}
 #: A shortened ``tiny`` shear test for campaign tests of the real backends: the paper's four
 #: steps, half the preset's rotations, so that one simulation takes about a minute on one core.
 SHORT_TINY_CELL = {"preset": "tiny", "procedure": {"preset": "paper", "preshear_rotation": 0.06,
@@ -122,28 +159,103 @@ def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
     return path
 
 
-# ----------------------------------------------------------------------------- simulation bank
-@pytest.fixture(scope="session")
-def bank(tmp_path_factory):
-    """The session's :class:`tests.bank.SimulationBank` of real-engine shear tests (started by
-    ``_start_bank`` as soon as the session starts)."""
-    from tests.bank import SimulationBank
-
-    simulations = SimulationBank(tmp_path_factory.mktemp("bank"))
-    yield simulations
-    simulations.close()
+# ----------------------------------------------------------------------------- test tiers
+#: the engines every tier must see finish a real shear test
+ENGINES = ("numba_dem", "liggghts", "yade")
+TIERS = {"fast": "not slow", "all": None}
+#: the session folder (bank outcomes, engine-run records), made by the first process and inherited
+#: by xdist's workers
+SESSION_VARIABLE = "CALIBRAX_TEST_SESSION"
+_BANK = pytest.StashKey[SimulationBank]()
 
 
-@pytest.fixture(autouse=True, scope="session")
-def _start_bank(request) -> None:
-    """Start the declared simulations at the first test, so that they run beside everything else;
-    the tests that read them run last (``pytest_collection_modifyitems``)."""
-    from tests.bank import JOBS
+def pytest_addoption(parser) -> None:
+    parser.addoption("--tier", choices=sorted(TIERS), default=None,
+                     help="fast: every test not marked slow (make test); all: everything (make test-all). "
+                          "Either fails the session if one of the engines numba_dem, liggghts, yade did not "
+                          "finish a real shear test.")
 
-    if JOBS and any("bank" in item.fixturenames for item in request.session.items):
-        request.getfixturevalue("bank").start()
+
+def _xdist_worker(config) -> bool:
+    return hasattr(config, "workerinput")
+
+
+def pytest_configure(config) -> None:
+    tier = config.getoption("--tier")
+    if tier is not None and TIERS[tier]:
+        if config.option.markexpr:
+            raise pytest.UsageError(f"--tier {tier} selects with -m {TIERS[tier]!r} itself; give -m without --tier")
+        config.option.markexpr = TIERS[tier]
+    if not _xdist_worker(config):  # a new folder, also in a pytest run by a test of this suite
+        os.environ[SESSION_VARIABLE] = tempfile.mkdtemp(prefix="calibrax-tests-")
+
+
+def bank_jobs(item) -> list[str]:
+    """The bank jobs a test names with ``@pytest.mark.bank(...)`` (its own and its module's)."""
+    return [name for mark in item.iter_markers("bank") for name in mark.args]
 
 
 def pytest_collection_modifyitems(config, items) -> None:
-    """Tests that read the simulation bank run after all the others (stable order otherwise)."""
-    items.sort(key=lambda item: "bank" in getattr(item, "fixturenames", ()))
+    """Mark each test that reads bank jobs with their engines, and run those tests last (the bank
+    runs beside everything else meanwhile)."""
+    for item in items:
+        names = bank_jobs(item)
+        unknown = [n for n in names if n not in JOBS]
+        if unknown:
+            raise pytest.UsageError(f"{item.nodeid} names bank job(s) {unknown} that no module declared")
+        for backend in sorted({JOBS[n].backend for n in names}):
+            item.add_marker(backend)
+    items.sort(key=lambda item: bool(bank_jobs(item)))
+
+
+def pytest_collection_finish(session) -> None:
+    """Start the bank with the jobs of the selected tests (what ``-m``, ``-k`` and the paths left),
+    unless another process of this session already has."""
+    selected = {name for item in session.items for name in bank_jobs(item)}
+    if session.config.option.collectonly:
+        return
+    bank = SimulationBank(Path(os.environ[SESSION_VARIABLE]), selected)
+    session.config.stash[_BANK] = bank
+    bank.start()
+
+
+@pytest.fixture(scope="session")
+def bank(request) -> SimulationBank:
+    """The session's :class:`tests.bank.SimulationBank` of real-engine shear tests."""
+    return request.config.stash[_BANK]
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_sessionfinish(session, exitstatus) -> None:
+    """The bank's owner waits for its jobs (another process may read them); under ``--tier`` the
+    session fails if an engine did not finish a real shear test in it."""
+    config = session.config
+    if _BANK in config.stash:
+        config.stash[_BANK].close(wait=exitstatus != pytest.ExitCode.INTERRUPTED)
+    if _xdist_worker(config):
+        return
+    folder = Path(os.environ[SESSION_VARIABLE])
+    if config.getoption("--tier") is not None and not config.option.collectonly:
+        _check_every_engine_ran(session, folder, exitstatus)
+    if session.exitstatus == pytest.ExitCode.OK:
+        shutil.rmtree(folder, ignore_errors=True)
+    elif (folder / "bank").is_dir() and any((folder / "bank").iterdir()):
+        print(f"\nthe simulation bank's work folders are kept in {folder / 'bank'}", file=sys.stderr)
+
+
+def _check_every_engine_ran(session, folder: Path, exitstatus: int) -> None:
+    """Fail the session if one of :data:`ENGINES` did not finish a real shear test in it."""
+    config = session.config
+    runs = read_engine_runs(folder)
+    missing = [e for e in ENGINES if not any(r["backend"] == e and r["wall_time"] > 0 for r in runs)]
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    write = reporter.write_line if reporter is not None else print
+    if reporter is not None:
+        reporter.write_sep("-", "real engine runs in this session")
+    for engine in ENGINES:
+        times = [r["wall_time"] for r in runs if r["backend"] == engine]
+        write(f"{engine}: {len(times)} shear test(s), {sum(times):.0f} s of engine wall time")
+    if missing and exitstatus in (pytest.ExitCode.OK, pytest.ExitCode.TESTS_FAILED):
+        write(f"ERROR: the {config.getoption('--tier')} tier finished no real shear test on {', '.join(missing)}: "
+              "every tier must run each engine (the smoke tests of tests/bank.py; README, Tests)")
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED

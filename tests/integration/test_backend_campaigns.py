@@ -1,8 +1,9 @@
-"""``calibrax run`` end to end on the real LIGGGHTS and YADE engines: a short campaign (shortened
-``tiny`` cell) against the bundled pseudo-experiment runs to the end, resumes as finished, and
-``status`` reads it. LIGGGHTS runs 2 Sobol points and one qEI batch of 2; YADE, about four times
-slower on this cell, runs the 2 Sobol points only (the search itself is engine-independent and
-is tested on numba_dem through Dask in test_dask.py and by ``make run``)."""
+"""``calibrax run`` end to end on the real LIGGGHTS and YADE engines (full tier): a campaign on the
+smoke test's cell (tests/bank.py: the whole procedure at rotations of 0.02 rad, E of 1–2 GPa)
+against the bundled pseudo-experiment runs to the end, resumes as finished, and ``status`` reads
+it. LIGGGHTS runs 2 Sobol points and one qEI batch of 2; YADE, about four times slower, runs the 2
+Sobol points only (the search itself is engine-independent and is tested on numba_dem through Dask
+in test_dask.py and by ``make run``)."""
 
 from __future__ import annotations
 
@@ -13,14 +14,19 @@ import shutil
 import pytest
 
 from calibrax import CampaignStore
-from tests.conftest import SHORT_TINY_CELL, calibrax_cli, write_backend_campaign
+from tests.conftest import SMOKE_CELL, calibrax_cli, write_backend_campaign
+
+pytestmark = pytest.mark.slow
 
 
-@pytest.mark.parametrize("simulator, iterations", [("liggghts", 1), ("yade", 0)])
+@pytest.mark.parametrize("simulator, iterations", [pytest.param("liggghts", 1, marks=pytest.mark.liggghts),
+                                                   pytest.param("yade", 0, marks=pytest.mark.yade)])
 def test_campaign_runs_to_the_end_on_the_real_engine(tmp_path, simulator, iterations):
     assert shutil.which(simulator), f"{simulator} is not installed: apt-get install -y {simulator}"
-    cell = {**SHORT_TINY_CELL, "procedure": {"preset": "paper", "preshear_rotation": 0.04, "shear_rotation": 0.04}}
-    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations}, cell=cell)
+    parameters = {"youngs_modulus": {"low": 1.0e9, "high": 2.0e9, "log": True},
+                  "sliding_friction": {"low": 0.2, "high": 0.6}}
+    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations},
+                                  cell=SMOKE_CELL, parameters=parameters)
     total = 2 + 2 * iterations
     env = dict(os.environ)
     proc = calibrax_cli("run", str(path), env=env, timeout=3600)

@@ -46,6 +46,7 @@ def _declare_cases(backend: str) -> dict[tuple[str, int], str]:
 
 
 JOBS = {backend: _declare_cases(backend) for backend in BACKENDS}
+pytestmark = [pytest.mark.slow, pytest.mark.bank(*(name for jobs in JOBS.values() for name in jobs.values()))]
 
 
 @pytest.fixture(scope="module", params=BACKENDS)

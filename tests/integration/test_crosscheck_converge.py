@@ -61,6 +61,9 @@ def crosscheck(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.numba_dem
+@pytest.mark.liggghts
+@pytest.mark.yade
 def test_crosscheck_writes_table_figure_store_and_micro_results(crosscheck):
     out, proc, wall = crosscheck
     for name in ("crosscheck.md", "crosscheck.png", "crosscheck.svg", "crosscheck.h5", "crosscheck-micro.json"):
@@ -72,6 +75,9 @@ def test_crosscheck_writes_table_figure_store_and_micro_results(crosscheck):
 
 
 @pytest.mark.slow
+@pytest.mark.numba_dem
+@pytest.mark.liggghts
+@pytest.mark.yade
 def test_every_backend_gives_four_finite_peaks(crosscheck):
     out, _, _ = crosscheck
     store = CampaignStore(out / "crosscheck.h5")
@@ -87,6 +93,9 @@ def test_every_backend_gives_four_finite_peaks(crosscheck):
 
 
 @pytest.mark.slow
+@pytest.mark.numba_dem
+@pytest.mark.liggghts
+@pytest.mark.yade
 def test_micro_level_checks_exist_for_every_backend_and_agree_within_2_percent(crosscheck):
     out, _, _ = crosscheck
     data = json.loads((out / "crosscheck-micro.json").read_text())
@@ -130,6 +139,9 @@ def test_micro_level_checks_exist_for_every_backend_and_agree_within_2_percent(c
 
 
 @pytest.mark.slow
+@pytest.mark.numba_dem
+@pytest.mark.liggghts
+@pytest.mark.yade
 def test_crosscheck_table_shows_peaks_density_c_aif_and_agreement_per_backend(crosscheck):
     out, _, _ = crosscheck
     text = (out / "crosscheck.md").read_text()
@@ -160,6 +172,7 @@ def test_crosscheck_table_shows_peaks_density_c_aif_and_agreement_per_backend(cr
 
 # ----------------------------------------------------------------------------- converge
 @pytest.mark.slow
+@pytest.mark.numba_dem
 def test_converge_on_two_particle_counts_writes_table_figure_and_a_verdict(tmp_path):
     config = write_real_config(tmp_path, "numba_dem")
     out = tmp_path / "conv"

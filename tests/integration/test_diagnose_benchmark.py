@@ -18,11 +18,12 @@ import yaml
 from calibrax.cli import main
 from calibrax.diagnosis.benchmark.cases import MeasurementNoise, cell_words, read_labels, write_blinded
 from calibrax.diagnosis.benchmark.scores import read_answers, score
-from tests.bank import declare_tiny
+from tests.bank import JOBS, declare_smoke
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "data"
-NUMBA = declare_tiny("numba_dem")
-LIGGGHTS = declare_tiny("liggghts")
+#: any real result will do for a blinded file: the engines' smoke tests (shared with their modules)
+NUMBA = declare_smoke("numba_dem")
+LIGGGHTS = declare_smoke("liggghts")
 
 
 @pytest.fixture(scope="module")
@@ -99,16 +100,15 @@ def test_labels_naming_a_missing_case_exit_2(tmp_path, capsys):
     assert "c1" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("job", [NUMBA, LIGGGHTS])
+@pytest.mark.parametrize("job", [pytest.param(NUMBA, marks=pytest.mark.bank(NUMBA)),
+                                 pytest.param(LIGGGHTS, marks=pytest.mark.bank(LIGGGHTS))])
 def test_blinded_files_read_back_and_tell_nothing(bank, tmp_path, job):
     """A case written blind from a real engine's result is an ordinary experiment whose header names
     the cell but not the backend, the material or the walls' friction; the noise is on top."""
     from calibrax.core.experiment import load_experiment
-    from calibrax.core.sheartest import ShearCellSpec
     from calibrax.diagnosis import gap as gaps
 
-    result = bank.result(job)
-    spec = ShearCellSpec.preset("tiny")
+    result, spec = bank.result(job), JOBS[job].spec
     path = write_blinded([result, result], tmp_path / "case-001", cell_words(spec), MeasurementNoise(),
                          np.random.default_rng(0))
     text = "".join(p.read_text() for p in tmp_path.glob("case-001*"))

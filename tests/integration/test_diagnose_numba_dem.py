@@ -29,7 +29,7 @@ from calibrax.core.pseudo import write_pseudo_experiment
 from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
 from calibrax.diagnosis.gap import gap_size
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.numba_dem]
 
 TRUTH = {"youngs_modulus": 2.0e10, "sliding_friction": 0.35}
 HIDDEN_WALL_FRICTION = 0.4

@@ -1,5 +1,6 @@
 """The LIGGGHTS backend against the real ``liggghts`` binary (no mocks): contact law, meshes,
-input validation, a missing engine, and one short shear test shared by several assertions."""
+input validation, a missing engine, and the smoke test shared by several assertions (fast tier);
+the ``tiny`` preset's friction and a bed without rolling resistance (full tier)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,9 @@ from calibrax_liggghts import LiggghtsSimulator
 from calibrax_liggghts import mesh as meshes
 from calibrax_liggghts.script import NTYPES, T_PART, T_WALL, num, write_inputs
 from calibrax_liggghts.verification import rolling_resistance, sliding_on_base, two_sphere_collision
-from tests.bank import JOBS, declare_short, declare_tiny
+from tests.bank import JOBS, declare_short, declare_smoke, declare_tiny
+
+pytestmark = pytest.mark.liggghts
 
 
 def tiny_spec(**overrides) -> ShearCellSpec:
@@ -24,16 +27,17 @@ def tiny_spec(**overrides) -> ShearCellSpec:
     return ShearCellSpec.preset("tiny").replace(**overrides) if overrides else ShearCellSpec.preset("tiny")
 
 
-#: the ``tiny`` preset as it stands (shared with test_base_holds), and a short one without rolling
-#: resistance for the servo
+#: the smoke test (the whole script, cheaply), the ``tiny`` preset as it stands (shared with
+#: test_base_holds), and a short one without rolling resistance for the servo
+SMOKE = declare_smoke("liggghts")
 TINY = declare_tiny("liggghts")
 NO_ROLLING_RESISTANCE = declare_short("liggghts", "mu_r_0", material={"rolling_friction": 0.0})
 
 
 @pytest.fixture(scope="module")
 def shear_run(bank):
-    """One tiny shear test on LIGGGHTS from the session's bank, shared by the assertions below."""
-    return JOBS[TINY].spec, bank.result(TINY), bank.workdir(TINY)
+    """The smoke test on LIGGGHTS from the session's bank, shared by the assertions below."""
+    return JOBS[SMOKE].spec, bank.result(SMOKE), bank.workdir(SMOKE)
 
 
 # ----------------------------------------------------------------------------- contact law
@@ -61,22 +65,31 @@ def test_epsd2_rolling_torque_on_the_base_mesh_saturates_at_mu_r_r_m_g():
 
 
 # ----------------------------------------------------------------------------- shear test
-def test_shear_test_gives_four_finite_peaks_and_a_plausible_friction(shear_run):
+@pytest.mark.bank(SMOKE)
+def test_shear_test_gives_four_finite_peaks(shear_run):
     spec, result, _ = shear_run
     assert result.peak_shear_stress.shape == (4,)
     assert result.is_finite()
     assert np.all(result.peak_shear_stress > 0)
     locus = result.yield_locus("target")
     assert math.isfinite(locus.cohesion) and math.isfinite(locus.aif_deg)
-    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, README), so
-    # its sign says nothing about the engine; the mean peak τ/σ does (numba_dem: 0.68 ± 0.11)
-    ratio = float(np.mean(result.peak_shear_stress / result.peak_normal_stress))
-    assert 0.3 < ratio < 1.2, ratio
     assert result.provenance.backend == "liggghts"
     assert result.provenance.engine_version.startswith("LIGGGHTS")
     assert result.provenance.particle_count == spec.particle_count
 
 
+@pytest.mark.slow
+@pytest.mark.bank(TINY)
+def test_the_tiny_test_gives_a_plausible_friction(bank):
+    """With a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, README), so
+    its sign says nothing about the engine; the mean peak τ/σ does (numba_dem: 0.68 ± 0.11)."""
+    result = bank.result(TINY)
+    assert result.is_finite()
+    ratio = float(np.mean(result.peak_shear_stress / result.peak_normal_stress))
+    assert 0.3 < ratio < 1.2, ratio
+
+
+@pytest.mark.bank(SMOKE)
 def test_shear_test_time_series_follow_the_conventions(shear_run):
     spec, result, _ = shear_run
     assert [s.kind for s in result.steps] == ["preshear", "shear"] * 4
@@ -94,6 +107,7 @@ def test_shear_test_time_series_follow_the_conventions(shear_run):
     assert np.all((result.bulk_density > 1000) & (result.bulk_density < spec.material.density))
 
 
+@pytest.mark.bank(SMOKE)
 def test_head_turns_back_to_unload_the_torque_before_every_settle(shear_run):
     """As numba_dem and YADE: after each of the 7 rotations that a settle follows, the head turns
     back until its torque has relaxed, at most 0.05 rad (plus one sample interval)."""
@@ -104,6 +118,7 @@ def test_head_turns_back_to_unload_the_torque_before_every_settle(shear_run):
     assert one_sample * 0.99 <= extra["unload_rotation_max"] <= 0.05 + 1.01 * one_sample
 
 
+@pytest.mark.bank(SMOKE)
 def test_consolidation_turns_for_at_least_one_preshear_rotation(shear_run):
     """numba_dem's and YADE's rule: the head turns while it consolidates the bed, for at least one
     preshear rotation (and 10 ms), before the first preshear is recorded."""
@@ -136,6 +151,8 @@ def _script_between(shear_run, start: str, end: str) -> str:
     return text[text.index(start):text.index(end)]
 
 
+@pytest.mark.slow
+@pytest.mark.bank(NO_ROLLING_RESISTANCE)
 def test_servo_holds_a_bed_without_rolling_resistance(bank):
     """μr = 0: the blades' friction reverses with the head's vertical motion. The former kinematic PI
     servo read a force that depended on the direction it moved the head, chattered, wound up its
@@ -147,6 +164,7 @@ def test_servo_holds_a_bed_without_rolling_resistance(bank):
     assert np.all(result.peak_shear_stress > 0.1 * np.asarray(spec.procedure.shear_stresses))
 
 
+@pytest.mark.bank(SMOKE)
 def test_written_meshes_pass_the_stl_checker(shear_run):
     _, _, workdir = shear_run
     files = sorted(Path(workdir).glob("*.stl"))

@@ -6,6 +6,8 @@ import pytest
 
 from calibrax_numba_dem import verification as V
 
+pytestmark = pytest.mark.numba_dem
+
 
 @pytest.mark.parametrize("speed", [0.1, 0.5, 2.0])
 def test_hertz_contact_time(speed: float) -> None:

@@ -12,11 +12,14 @@ from calibrax.core.sheartest import ShearCellSpec
 from calibrax_numba_dem.layout import H_PHI, P_MUR_WALL, P_MU_WALL
 from calibrax_numba_dem.procedure import RunLog, ShearTestDriver
 
+pytestmark = pytest.mark.numba_dem
+
 
 def _driver(spec: ShearCellSpec) -> ShearTestDriver:
     return ShearTestDriver(spec.validate(), RunLog(logging.getLogger("test_numba_dem_procedure")))
 
 
+@pytest.mark.slow
 def test_consolidation_at_the_papers_rotation_rate_runs_its_whole_rotation():
     """The ``paper`` preset turns at 0.5 rad/s; its first preshear rotation takes 0.6 s, and a fixed
     0.12 s cut-off stopped every paper consolidation after a fifth of it, with a warning. Shortened

@@ -8,7 +8,13 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import ROOT
+
+#: a fresh cache compiles every kernel again (about 70 s): the full tier only; ``make setup`` runs the
+#: same warm-up before every tier
+pytestmark = [pytest.mark.slow, pytest.mark.numba_dem]
 
 #: a real but very short shear test: the tiny cell with rotations of 0.01 rad
 SHORT_TEST = """

@@ -25,6 +25,7 @@ SEEDS = (300, 301, 302)
 
 AT_TRUTH = [declare_tiny("numba_dem", seed, "truth", material={"youngs_modulus": 2.0e10, "sliding_friction": 0.35})
             for seed in SEEDS]
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -42,6 +43,7 @@ def test_the_experiment_was_made_at_the_truth_with_seeds_no_campaign_uses():
                for i in (0, 1))
 
 
+@pytest.mark.bank(*AT_TRUTH)
 @pytest.mark.parametrize("metric_name", ["c_aif", "robust"])
 def test_new_seeds_at_the_truth_fall_within_the_stated_threshold(at_truth, metric_name):
     experiment = load_experiment(EXPERIMENT)

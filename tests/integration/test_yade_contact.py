@@ -12,6 +12,8 @@ from calibrax_yade.verification import (KNOWN_DIFFERENCES, damped_hertz_impact, 
 
 from calibrax.core.sheartest import ShearCellSpec
 
+pytestmark = pytest.mark.yade
+
 
 def test_elastic_collision_matches_hertz_contact_time():
     out = two_sphere_collision(speed=0.5, restitution=1.0)

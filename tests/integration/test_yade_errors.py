@@ -12,6 +12,8 @@ from calibrax_yade.runner import check_numbers
 from calibrax.core.sheartest import Material, ShearCellSpec
 from calibrax.errors import ConfigError, EngineNotFound, SpecError
 
+pytestmark = pytest.mark.yade
+
 
 def _tiny(**changes):
     return ShearCellSpec.preset("tiny").replace(**changes)
