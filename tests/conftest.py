@@ -46,11 +46,11 @@ if (os.cpu_count() or 1) < 2:
 # cores that made a 13 s in-process pour take 128 s (measured with two busy processes beside it)
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-import yaml  # noqa: E402
+import numpy as np
+import pytest
+import yaml
 
-from tests.bank import JOBS, SMOKE_NUMERICS, SMOKE_PROCEDURE, SimulationBank, read_engine_runs  # noqa: E402
+from tests.bank import JOBS, SMOKE_NUMERICS, SMOKE_PROCEDURE, SimulationBank, read_engine_runs
 
 DOUBLE_MODULE = "tests.doubles.analytic_simulator"
 TRUE_E, TRUE_MU = 2.0e10, 0.45
@@ -195,9 +195,10 @@ def bank_jobs(item) -> list[str]:
     return [name for mark in item.iter_markers("bank") for name in mark.args]
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items) -> None:
-    """Mark each test that reads bank jobs with their engines, and run those tests last (the bank
-    runs beside everything else meanwhile)."""
+    """Mark each test that reads bank jobs with their engines (before ``-m`` selects by them), and
+    run those tests last (the bank runs beside everything else meanwhile)."""
     for item in items:
         names = bank_jobs(item)
         unknown = [n for n in names if n not in JOBS]
