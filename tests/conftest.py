@@ -124,18 +124,14 @@ PSEUDO_EXPERIMENT = ROOT / "examples/data/pseudo-numba-tiny-points.csv"
 #: The bank's smoke test (tests/bank.py) as a campaign's ``cell``: the whole procedure at rotations
 #: of 0.02 rad, about 6 s per simulation on numba_dem; E comes from the campaign's parameters.
 SMOKE_CELL = {"preset": "tiny", "procedure": {"preset": "paper", **SMOKE_PROCEDURE}, "numerics": dict(SMOKE_NUMERICS)}
-#: A shortened ``tiny`` shear test for campaign tests of the real backends: the paper's four
-#: steps, half the preset's rotations, so that one simulation takes about a minute on one core.
-SHORT_TINY_CELL = {"preset": "tiny", "procedure": {"preset": "paper", "preshear_rotation": 0.06,
-                                                   "shear_rotation": 0.06},
-                   "numerics": {"dt_fraction": 0.2, "threads": 1}}
 
 
 def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
-    """A short campaign on a REAL backend against the bundled pseudo-experiment; ``changes``
-    update its keys. E is kept low (5–10 GPa: larger time steps) so that simulations are cheap. The
-    timeout is only a safety net: the session's simulation bank (tests/bank.py) runs beside these
-    campaigns, so a simulation may take several times its time on an idle machine."""
+    """A short campaign on a REAL backend against the bundled pseudo-experiment, on the smoke
+    test's cell (:data:`SMOKE_CELL`) with E of 1–2 GPa (the smoke test's 1 GPa and a little
+    stiffer); ``changes`` update its keys. The timeout is only a safety net: the session's
+    simulation bank (tests/bank.py) runs beside these campaigns, so a simulation may take several
+    times its time on an idle machine."""
     import shutil
 
     shutil.copy(PSEUDO_EXPERIMENT, folder / "exp.csv")
@@ -143,8 +139,8 @@ def write_backend_campaign(folder: Path, simulator: str, **changes) -> Path:
         "name": f"{simulator}-campaign",
         "simulator": simulator,
         "experiment": "exp.csv",
-        "cell": SHORT_TINY_CELL,
-        "parameters": {"youngs_modulus": {"low": 5.0e9, "high": 1.0e10, "log": True},
+        "cell": SMOKE_CELL,
+        "parameters": {"youngs_modulus": {"low": 1.0e9, "high": 2.0e9, "log": True},
                        "sliding_friction": {"low": 0.2, "high": 0.6}},
         "metric": "c_aif",
         "acquisition": {"name": "qei", "q": 2},
@@ -212,9 +208,9 @@ def pytest_collection_modifyitems(config, items) -> None:
 def pytest_collection_finish(session) -> None:
     """Start the bank with the jobs of the selected tests (what ``-m``, ``-k`` and the paths left),
     unless another process of this session already has."""
-    selected = {name for item in session.items for name in bank_jobs(item)}
     if session.config.option.collectonly:
         return
+    selected = {name for item in session.items for name in bank_jobs(item)}
     bank = SimulationBank(Path(os.environ[SESSION_VARIABLE]), selected)
     session.config.stash[_BANK] = bank
     bank.start()

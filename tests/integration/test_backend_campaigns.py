@@ -14,7 +14,7 @@ import shutil
 import pytest
 
 from calibrax import CampaignStore
-from tests.conftest import SMOKE_CELL, calibrax_cli, write_backend_campaign
+from tests.conftest import calibrax_cli, write_backend_campaign
 
 pytestmark = pytest.mark.slow
 
@@ -23,10 +23,7 @@ pytestmark = pytest.mark.slow
                                                    pytest.param("yade", 0, marks=pytest.mark.yade)])
 def test_campaign_runs_to_the_end_on_the_real_engine(tmp_path, simulator, iterations):
     assert shutil.which(simulator), f"{simulator} is not installed: apt-get install -y {simulator}"
-    parameters = {"youngs_modulus": {"low": 1.0e9, "high": 2.0e9, "log": True},
-                  "sliding_friction": {"low": 0.2, "high": 0.6}}
-    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations},
-                                  cell=SMOKE_CELL, parameters=parameters)
+    path = write_backend_campaign(tmp_path, simulator, budget={"initial": 2, "iterations": iterations})
     total = 2 + 2 * iterations
     env = dict(os.environ)
     proc = calibrax_cli("run", str(path), env=env, timeout=3600)

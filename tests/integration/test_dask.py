@@ -18,7 +18,7 @@ import yaml
 
 from calibrax import CampaignStore, load_config
 from calibrax.plugins.manager import get_manager
-from tests.conftest import ROOT, SMOKE_CELL, calibrax_cli, double_env, write_backend_campaign, write_double_campaign
+from tests.conftest import ROOT, calibrax_cli, double_env, write_backend_campaign, write_double_campaign
 
 
 def _kill_worker_of_first_simulation(proc: subprocess.Popen, after_s: float, deadline_s: float) -> str | None:
@@ -45,11 +45,8 @@ def test_dask_campaign_on_numba_dem_survives_a_killed_worker(tmp_path):
     batch of 2, on the smoke test's cell: about 6 s per simulation) to the end while one worker is
     SIGKILLed mid-simulation: every simulation is accounted for, the killed one ran again
     elsewhere, and none completed twice."""
-    parameters = {"youngs_modulus": {"low": 1.0e9, "high": 2.0e9, "log": True},
-                  "sliding_friction": {"low": 0.2, "high": 0.6}}
-    path = write_backend_campaign(tmp_path, "numba_dem", cell=SMOKE_CELL, parameters=parameters,
-                                  executor={"name": "dask", "cluster": "local", "workers": 2, "retries": 2,
-                                            "timeout_s": 3000})
+    path = write_backend_campaign(tmp_path, "numba_dem", executor={"name": "dask", "cluster": "local", "workers": 2,
+                                                                   "retries": 2, "timeout_s": 3000})
     proc = subprocess.Popen([sys.executable, "-m", "calibrax.cli", "run", str(path)], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     killed_task = _kill_worker_of_first_simulation(proc, after_s=2.0, deadline_s=180)
