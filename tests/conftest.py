@@ -248,6 +248,7 @@ def _check_every_engine_ran(session, folder: Path, exitstatus: int) -> None:
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     write = reporter.write_line if reporter is not None else print
     if reporter is not None:
+        reporter.write_line("")  # after the progress line
         reporter.write_sep("-", "real engine runs in this session")
     for engine in ENGINES:
         times = [r["wall_time"] for r in runs if r["backend"] == engine]
