@@ -68,6 +68,8 @@ def _simulate(job: Job, workdir: str) -> ShearTestResult:
     return get_manager().create("simulator", job.backend).simulate(job.spec, Path(workdir))
 
 
+#: how long a reader in another process waits for a job's outcome, s (the full tier takes 30 min)
+WAIT_LIMIT_S = 3600.0
 #: the session folder's file of finished shear tests (JSON lines)
 ENGINE_RUNS = "engine-runs.jsonl"
 
@@ -162,10 +164,7 @@ class SimulationBank:
         self._check(name)
         if name in self._futures:
             return self._futures[name].result()
-        path = self._file(name, ".outcome")
-        while not path.is_file():
-            time.sleep(0.5)
-        kind, value = pickle.loads(path.read_bytes())
+        kind, value = pickle.loads(self._wait_for(self._file(name, ".outcome")).read_bytes())
         if kind == "error":
             raise value
         return value
@@ -173,10 +172,17 @@ class SimulationBank:
     def workdir(self, name: str) -> Path:
         """The folder the job ``name`` ran in."""
         self._check(name)
-        path = self._file(name, ".workdir")
+        return Path(self._wait_for(self._file(name, ".workdir")).read_text())
+
+    def _wait_for(self, path: Path) -> Path:
+        """``path`` once the bank's owner has written it; a clear error after :data:`WAIT_LIMIT_S`
+        (the owner died, or the jobs take far longer than any tier)."""
+        deadline = time.monotonic() + WAIT_LIMIT_S
         while not path.is_file():
-            time.sleep(0.2)
-        return Path(path.read_text())
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no bank outcome {path.name} after {WAIT_LIMIT_S:.0f} s in {self.folder}")
+            time.sleep(0.5)
+        return path
 
     def _check(self, name: str) -> None:
         if name not in self.selected:
