@@ -36,6 +36,13 @@ EXPECTED_MICRO = {"collision e=1": ("contact_time", "restitution", "peak_overlap
                   "rolling resistance": ("torque",)}
 
 
+def on_every_engine(test):
+    """Mark a test of the crosscheck study: the full tier's, and every engine's."""
+    for mark in (pytest.mark.slow, pytest.mark.numba_dem, pytest.mark.liggghts, pytest.mark.yade):
+        test = mark(test)
+    return test
+
+
 def write_real_config(folder, simulator: str = "numba_dem") -> str:
     shutil.copy(ROOT / "examples/data/pseudo-numba-tiny-points.csv", folder / "exp.csv")
     config = {"name": "study", "simulator": simulator, "experiment": "exp.csv", "cell": CELL, "material": MATERIAL,
@@ -60,10 +67,7 @@ def crosscheck(tmp_path_factory):
     return folder / "runs/study.crosscheck", proc, time.monotonic() - t0
 
 
-@pytest.mark.slow
-@pytest.mark.numba_dem
-@pytest.mark.liggghts
-@pytest.mark.yade
+@on_every_engine
 def test_crosscheck_writes_table_figure_store_and_micro_results(crosscheck):
     out, proc, wall = crosscheck
     for name in ("crosscheck.md", "crosscheck.png", "crosscheck.svg", "crosscheck.h5", "crosscheck-micro.json"):
@@ -74,10 +78,7 @@ def test_crosscheck_writes_table_figure_store_and_micro_results(crosscheck):
     print(f"crosscheck with {len(BACKENDS)} backends took {wall:.0f} s")
 
 
-@pytest.mark.slow
-@pytest.mark.numba_dem
-@pytest.mark.liggghts
-@pytest.mark.yade
+@on_every_engine
 def test_every_backend_gives_four_finite_peaks(crosscheck):
     out, _, _ = crosscheck
     store = CampaignStore(out / "crosscheck.h5")
@@ -92,10 +93,7 @@ def test_every_backend_gives_four_finite_peaks(crosscheck):
         np.testing.assert_allclose(result.target_normal_stress, [9e3, 8e3, 7e3, 6e3])
 
 
-@pytest.mark.slow
-@pytest.mark.numba_dem
-@pytest.mark.liggghts
-@pytest.mark.yade
+@on_every_engine
 def test_micro_level_checks_exist_for_every_backend_and_agree_within_2_percent(crosscheck):
     out, _, _ = crosscheck
     data = json.loads((out / "crosscheck-micro.json").read_text())
@@ -138,10 +136,7 @@ def test_micro_level_checks_exist_for_every_backend_and_agree_within_2_percent(c
     assert set(MICRO_CASES) == set(EXPECTED_MICRO)
 
 
-@pytest.mark.slow
-@pytest.mark.numba_dem
-@pytest.mark.liggghts
-@pytest.mark.yade
+@on_every_engine
 def test_crosscheck_table_shows_peaks_density_c_aif_and_agreement_per_backend(crosscheck):
     out, _, _ = crosscheck
     text = (out / "crosscheck.md").read_text()
