@@ -28,6 +28,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 
 #: relative wall time of one ``tiny`` test per backend (numba_dem = 1), to run the longest first
@@ -201,8 +202,34 @@ class SimulationBank:
 #: the elastic rise of each window, not the powder's strength: structure is checked on it, physics
 #: on the ``tiny`` runs. Measured alone on one core: numba_dem ≈ 6 s, LIGGGHTS ≈ 15 s, YADE ≈ 60 s.
 SMOKE_MATERIAL = {"youngs_modulus": 1.0e9}
-SMOKE_PROCEDURE = {"preshear_rotation": 0.02, "shear_rotation": 0.02, "settle_time": 0.002, "peak_window": 0.01}
+SMOKE_PROCEDURE = {"preshear_rotation": 0.02, "shear_rotation": 0.02, "settle_time": 0.002, "peak_window": 0.01,
+                   "preshear_max_rotation": 0.04, "steady_window": 0.01, "steady_tolerance": 0.05}
 SMOKE_NUMERICS = {"dt_fraction": 0.2, "threads": 1}
+
+
+def check_preshears_and_insertion(spec: ShearCellSpec, result) -> None:
+    """What every backend's real run must show of the steady preshear and the blade insertion:
+    each preshear turned between its minimum and its cap (± one sample); its drift
+    (``sheartest.preshear_drift``) is within the tolerance unless it stopped at the cap, and then
+    the result warns; the blades went in (the head's face down to within a tenth of a radius of
+    the poured bed's top) or the result warns that they did not."""
+    p = spec.procedure
+    one = p.rotation_rate * spec.numerics.sample_interval * 1.01
+    pre = [s for s in result.steps if s.kind == "preshear"]
+    assert result.preshear_rotation.shape == result.preshear_drift.shape == (len(pre),)
+    for k, step in enumerate(pre):
+        turned = step.rotation[-1]  # rotation is counted from 0 at the step's start
+        assert result.preshear_rotation[k] == turned
+        assert p.preshear_rotation - one <= turned <= (p.preshear_max_rotation or p.preshear_rotation) + one, k
+        drift = result.preshear_drift[k]
+        assert np.isfinite(drift), k
+        if drift > p.steady_tolerance:
+            assert turned >= p.preshear_max_rotation - one, (k, drift, turned)
+    unsteady = int(np.sum(result.preshear_drift > p.steady_tolerance))
+    warned = [w for w in result.warnings if "ended before τ/σ was steady" in w]
+    assert bool(warned) == (unsteady > 0) and (not warned or warned[0].startswith(f"{unsteady} of ")), warned
+    gap = result.provenance.extra["insertion_gap_radii"]
+    assert gap <= 0.1 or any("blade insertion" in w for w in result.warnings), gap
 
 
 def smoke_spec(seed: int = 0) -> ShearCellSpec:
@@ -219,7 +246,7 @@ def declare_smoke(backend: str, tag: str = "smoke") -> str:
 
 #: half the ``tiny`` preset's rotations: enough for the base slip (read over each window's second
 #: half), not for a steady state
-SHORT_ROTATIONS = {"preshear_rotation": 0.06, "shear_rotation": 0.06}
+SHORT_ROTATIONS = {"preshear_rotation": 0.06, "preshear_max_rotation": None, "shear_rotation": 0.06}
 
 
 def declare_tiny(backend: str, seed: int = 0, tag: str = "tiny", **changes) -> str:

@@ -24,7 +24,8 @@ BACKENDS = ("yade", "liggghts", "numba_dem")
 #: the ``tiny`` cell (577 particles) with short rotations and a soft material (E = 5 GPa: a 1.7×
 #: larger time step than Table 1's 25 GPa), so that one shear test takes a minute or two on one core
 CELL = {"preset": "tiny",
-        "procedure": {"preset": "paper", "preshear_rotation": 0.04, "shear_rotation": 0.04, "settle_time": 0.002,
+        "procedure": {"preset": "paper", "preshear_rotation": 0.04, "preshear_max_rotation": None,
+                      "shear_rotation": 0.04, "settle_time": 0.002,
                       "peak_window": 0.01},
         "numerics": {"dt_fraction": 0.2, "threads": 1}}
 MATERIAL = {"youngs_modulus": 5.0e9, "sliding_friction": 0.5, "rolling_friction": 0.5, "restitution": 0.3,

@@ -22,7 +22,8 @@ import sys, tempfile
 from pathlib import Path
 from calibrax import ShearCellSpec
 from calibrax_numba_dem import NumbaDEMSimulator
-spec = ShearCellSpec.preset("tiny").replace(procedure={"preshear_rotation": 0.01, "shear_rotation": 0.01,
+spec = ShearCellSpec.preset("tiny").replace(procedure={"preshear_rotation": 0.01, "preshear_max_rotation": None,
+                                                      "shear_rotation": 0.01,
                                                       "settle_time": 0.001, "peak_window": 0.005})
 with tempfile.TemporaryDirectory() as work:
     result = NumbaDEMSimulator().simulate(spec, Path(work))

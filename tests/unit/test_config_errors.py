@@ -110,6 +110,18 @@ def test_procedure_mapping_overrides_fields_of_its_preset(tmp_path):
     assert proc.returncode == 2 and "cell.procedure.shear_rotation" in proc.stderr, proc.stderr
 
 
+@pytest.mark.parametrize("procedure, key", [
+    ({"steady_tolerance": -0.05}, "cell.procedure.steady_tolerance"),
+    ({"preshear_rotation": 0.3, "preshear_max_rotation": 0.2}, "cell.procedure.preshear_max_rotation"),
+])
+def test_a_bad_steady_state_criterion_exits_2_naming_the_field(tmp_path, procedure, key):
+    """Before anything runs: the store is not even created."""
+    bad = write_double_campaign(tmp_path, cell={"preset": "tiny", "procedure": {"preset": "paper", **procedure}})
+    proc = calibrax_cli("run", str(bad))
+    assert proc.returncode == 2 and key in proc.stderr, proc.stderr
+    assert not list(tmp_path.rglob("*.h5"))
+
+
 @pytest.mark.parametrize("enqueue, key", [
     ([{"youngs_modulus": 2e10}], "enqueue[0].sliding_friction"),
     ([{"youngs_modulus": 2e10, "sliding_friction": 1.5}], "enqueue[0].sliding_friction"),

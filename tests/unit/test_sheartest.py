@@ -37,8 +37,8 @@ def test_consolidation_limit_follows_the_procedure():
                     ShearCellSpec.preset(name).procedure.consolidation_time_limit)
              for name in ("tiny", "quick", "paper")}
     assert times["paper"] == pytest.approx((0.6, 3.6))
-    assert times["quick"] == pytest.approx((0.03, 0.18))
-    assert times["tiny"] == pytest.approx((0.02, 0.12))
+    assert times["quick"] == pytest.approx((0.06, 0.36))  # a preshear of at least 0.3 rad at 5 rad/s
+    assert times["tiny"] == pytest.approx((0.05, 0.30))
     fast = ShearCellSpec.preset("tiny").replace(procedure={"rotation_rate": 100.0}).procedure
     assert fast.consolidation_min_time == 0.01 and fast.consolidation_time_limit == pytest.approx(0.06)
 
@@ -75,6 +75,11 @@ def test_spec_roundtrips_through_dict_and_hash_is_stable():
     ({"material": {"youngs_modulus": float("nan")}}, "material.youngs_modulus"),
     ({"geometry": {"wall_rolling_friction": -0.1}}, "geometry.wall_rolling_friction"),
     ({"geometry": {"wall_rolling_friction": "none"}}, "geometry.wall_rolling_friction"),
+    ({"procedure": {"steady_tolerance": -0.01}}, "procedure.steady_tolerance"),
+    ({"procedure": {"steady_window": 0.0}}, "procedure.steady_window"),
+    ({"procedure": {"preshear_rotation": 0.5, "preshear_max_rotation": 0.4}}, "procedure.preshear_max_rotation"),
+    ({"procedure": {"preshear_rotation": 0.1, "preshear_max_rotation": 0.3, "steady_window": 0.2}},
+     "procedure.steady_window"),
 ])
 def test_bad_specs_are_refused_with_the_field_named(changes, key):
     with pytest.raises(SpecError) as err:
@@ -214,3 +219,65 @@ def test_a_locus_whose_peaks_fall_with_sigma_is_flagged():
     res = ShearTestResult.from_steps(ShearCellSpec.preset("tiny"), steps, [1500.0] * 4,
                                      Provenance("hand", "-", "-", 0, 1.0, 100))
     assert any(w.startswith("the peaks do not rise with σ") for w in res.warnings), res.warnings
+
+
+def test_preshear_drift_compares_the_last_two_windows():
+    from calibrax.core.sheartest import preshear_drift, steady_window_samples
+
+    rot = np.arange(1, 101) * 0.004  # 100 samples of 0.004 rad: a window of 0.1 rad is 25 samples
+    assert steady_window_samples(rot, 0.1) == 25
+    sigma = np.full(100, 15000.0)
+    flat = np.full(100, 9000.0)
+    assert preshear_drift(rot, flat, sigma, 0.1) == 0.0
+    ramp = 9000.0 * (1.0 + 0.002 * np.arange(100))  # τ still rising: the last 25 against the 25 before
+    expected = (ramp[-25:].mean() - ramp[-50:-25].mean()) / ramp[-25:].mean()
+    assert preshear_drift(rot, ramp, sigma, 0.1) == pytest.approx(expected)
+    assert np.isnan(preshear_drift(rot[:40], ramp[:40], sigma[:40], 0.1))  # shorter than two windows
+
+
+def test_steady_schedule_checks_after_the_minimum_and_two_windows_until_the_cap():
+    from calibrax.core.sheartest import steady_schedule
+
+    proc = ShearCellSpec.preset("tiny").replace(procedure={
+        "preshear_rotation": 0.2, "preshear_max_rotation": 0.6, "steady_window": 0.1}).procedure
+    assert steady_schedule(proc, 0.01) == (20, 60, 10, 2)
+    short = ShearCellSpec.preset("tiny").replace(procedure={
+        "preshear_rotation": 0.05, "preshear_max_rotation": 0.6, "steady_window": 0.1}).procedure
+    assert steady_schedule(short, 0.01)[0] == 20  # two windows before the first check
+
+
+def _preshear_result(preshear_tau, cap):
+    """A result from hand-made steps (no engine): four preshears with τ series ``preshear_tau``
+    (each shape (n,), Pa) at σ = 15 kPa, then flat shear steps."""
+    from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+
+    steps = []
+    for tau, target in zip(preshear_tau, (9000.0, 8000.0, 7000.0, 6000.0)):
+        rot = np.arange(1, tau.size + 1) * 0.004
+        steps.append(StepRecord("preshear", 15000.0, rot, rot, tau, np.full(tau.size, 15000.0), np.zeros(tau.size)))
+        srot = np.arange(1, 51) * 0.004
+        steps.append(StepRecord("shear", target, srot, srot, 0.7 * target + 10.0 * np.arange(50),
+                                np.full(50, target), np.zeros(50)))
+    spec = ShearCellSpec.preset("tiny").replace(procedure={
+        "preshear_rotation": 0.2, "preshear_max_rotation": cap, "steady_window": 0.1, "steady_tolerance": 0.05})
+    return ShearTestResult.from_steps(spec, steps, [1500.0] * 4, Provenance("hand", "-", "-", 0, 1.0, 100))
+
+
+def test_a_preshear_that_ended_before_steady_state_is_warned_about():
+    """The criterion's record: each preshear's rotation and drift are in the result, and one whose
+    τ/σ still drifted by more than the tolerance when it ended (at its cap) makes a warning naming
+    it; steady ones make none."""
+    steady = [np.full(60, 9000.0)] * 4
+    ok = _preshear_result(steady, 0.6)
+    assert not any("steady" in w for w in ok.warnings), ok.warnings
+    np.testing.assert_allclose(ok.preshear_rotation, 0.24)
+    np.testing.assert_allclose(ok.preshear_drift, 0.0)
+    rising = 9000.0 * (1.0 + 0.01 * np.arange(150))  # τ/σ still climbing by 25 % a window at the cap
+    bad = _preshear_result([steady[0], rising, steady[0], steady[0]], 0.6)
+    assert bad.preshear_drift[1] > 0.05 and bad.preshear_rotation[1] == pytest.approx(0.6)
+    warned = [w for w in bad.warnings if "ended before τ/σ was steady" in w]
+    assert len(warned) == 1 and warned[0].startswith("1 of 4 preshears") and "preshear 1: 0.60 rad" in warned[0]
+    assert "procedure.preshear_max_rotation" in warned[0]
+    # a fixed-length preshear (no cap) states its drift but is not held to the criterion
+    fixed = _preshear_result([steady[0], rising, steady[0], steady[0]], None)
+    assert fixed.preshear_drift[1] > 0.05 and not any("steady" in w for w in fixed.warnings)

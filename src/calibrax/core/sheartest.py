@@ -29,6 +29,9 @@ __all__ = [
     "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
     "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "BASE_SPIN_SLIP_FRACTION",
     "base_slip", "base_layer_bounds", "layer_spin", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
+    "preshear_drift", "steady_window_samples", "running_mean_width", "stress_at_peak", "steady_schedule", "INSERTION_STRESS_FRACTION", "INSERTION_FRICTION", "INSERTION_TIME_FACTOR", "INSERTION_TOLERANCE_RADII",
+    "CONSOLIDATION_LIMIT_ROTATION",
+    "insertion_time_limit",
 ]
 
 
@@ -137,6 +140,39 @@ class Geometry:
 #: give up waiting for the head to settle; consolidations measured at tiny and quick settled within
 #: 1.1–1.8 × the minimum (0.033–0.036 s of 0.02–0.03 s)
 CONSOLIDATION_LIMIT_FACTOR = 6.0
+#: ... and at least this rotation's time: with the blades in the bed (INSERTION_STRESS_FRACTION),
+#: consolidations at tiny took 0.06–0.14 s (0.4–0.9 rad at 6 rad/s, 20 seeds), longer than six
+#: times a short preshear's minimum (the smoke test's 0.02 rad: 0.06 s)
+CONSOLIDATION_LIMIT_ROTATION = 1.0
+
+
+#: the blades go into the bed under this fraction of the preshear stress, before the bed is
+#: consolidated. Placed above the bed and brought down by the servo at the preshear stress, the
+#: blades never entered it: zero-thickness blade edges on a jammed bed carried the whole 15 kPa,
+#: the space between the blades stayed empty (solid fraction < 0.03 within 1.5 diameters of the
+#: disc, tiny, numba_dem) and τ measured the edges sliding on the bed's top (τ/σ of 0.16 to 0.73
+#: from one 0.15 rad window to the next in one preshear), the largest part of the seed scatter
+#: (benchmarks/shear_diagnostics.py)
+INSERTION_STRESS_FRACTION = 0.1
+#: particle–particle and particle–head friction while the blades go in (the pour's, numba_dem's
+#: POUR_FRICTION); the material's friction is switched on before consolidation. At the material's
+#: friction the edges did not cut in even at 1.5 kPa.
+INSERTION_FRICTION = 0.1
+#: the insertion ends when the head's lower face has come down to within INSERTION_TOLERANCE_RADII
+#: particle radii of the top of the poured bed's highest particle (every backend measures that the
+#: same way; one seed in twenty stopped 0.07 radii short at the time limit), or after this many times the time
+#: the head takes to come down by its blades' height and two particle diameters at the approach
+#: speed (then the result warns; :func:`insertion_time_limit`)
+INSERTION_TIME_FACTOR = 3.0
+INSERTION_TOLERANCE_RADII = 0.1
+
+
+def insertion_time_limit(spec: "ShearCellSpec", approach_speed: float) -> float:
+    """The longest blade insertion, s: :data:`INSERTION_TIME_FACTOR` × (blade height + 2
+    particle diameters) / ``approach_speed`` (m/s, the backend's servo speed limit while the head
+    comes down), and at least the consolidation's minimum time."""
+    travel = spec.geometry.blade_height + 4.0 * spec.radius
+    return max(INSERTION_TIME_FACTOR * travel / approach_speed, spec.procedure.consolidation_min_time)
 
 
 @dataclass(frozen=True)
@@ -147,7 +183,14 @@ class Procedure:
         preshear_stress: σ of every preshear, Pa (15 kPa in the paper).
         shear_stresses: σ of each shear step, Pa, in the order run (9, 8, 7, 6 kPa in the paper).
         rotation_rate: head rotation rate during preshear and shear, rad/s.
-        preshear_rotation: head rotation of each preshear (to steady state), rad.
+        preshear_rotation: the shortest rotation of each preshear, rad.
+        preshear_max_rotation: the longest rotation of each preshear, rad, or None (each preshear
+            turns exactly ``preshear_rotation``). When set, a preshear turns on past its minimum
+            until τ/σ is steady, as the FT4's does: the means of τ/σ over the last two windows
+            of ``steady_window`` rad differ by at most ``steady_tolerance`` of the last
+            (:func:`preshear_drift`); at the cap the result warns that it was not steady.
+        steady_window: width of each of the two windows the steady-state criterion compares, rad.
+        steady_tolerance: the largest relative difference of their mean τ/σ, > 0.
         shear_rotation: head rotation of each shear step (past the peak), rad.
         settle_time: time the head holds the new σ, not rotating, before each rotation starts, s.
         peak_window: width of the running mean the peak is taken from, rad of rotation.
@@ -157,6 +200,9 @@ class Procedure:
     shear_stresses: tuple[float, ...] = (9.0e3, 8.0e3, 7.0e3, 6.0e3)
     rotation_rate: float = 1.0
     preshear_rotation: float = 0.30
+    preshear_max_rotation: float | None = None
+    steady_window: float = 0.1
+    steady_tolerance: float = 0.05
     shear_rotation: float = 0.20
     settle_time: float = 0.02
     peak_window: float = 0.01
@@ -172,8 +218,10 @@ class Procedure:
         """Longest consolidation, s: :data:`CONSOLIDATION_LIMIT_FACTOR` × the shortest. Past it the
         backends stop waiting for the head to settle and warn. Derived from the procedure, so that a
         slow rotation (the paper's 0.5 rad/s: 0.6 s minimum, 3.6 s limit) is not cut off before its
-        first rotation ends; ``tiny`` gets 0.12 s, ``quick`` 0.18 s."""
-        return CONSOLIDATION_LIMIT_FACTOR * self.consolidation_min_time
+        first rotation ends, and at least :data:`CONSOLIDATION_LIMIT_ROTATION` rad of turning;
+        ``tiny`` gets 0.30 s, ``quick`` 0.36 s."""
+        return max(CONSOLIDATION_LIMIT_FACTOR * self.consolidation_min_time,
+                   CONSOLIDATION_LIMIT_ROTATION / self.rotation_rate)
 
 
 @dataclass(frozen=True)
@@ -417,6 +465,19 @@ class ShearCellSpec:
         finite("procedure.settle_time", p.settle_time)
         if p.settle_time < 0:
             raise SpecError("procedure.settle_time", "must be ≥ 0")
+        positive("procedure.steady_window", p.steady_window)
+        positive("procedure.steady_tolerance", p.steady_tolerance)
+        if p.preshear_max_rotation is not None:
+            positive("procedure.preshear_max_rotation", p.preshear_max_rotation)
+            if p.preshear_max_rotation < p.preshear_rotation:
+                raise SpecError("procedure.preshear_max_rotation",
+                                f"the cap ({p.preshear_max_rotation} rad) must be at least the shortest preshear, "
+                                f"procedure.preshear_rotation ({p.preshear_rotation} rad)")
+            if p.preshear_max_rotation < 2.0 * p.steady_window:
+                raise SpecError("procedure.steady_window",
+                                f"the steady-state criterion compares two windows of {p.steady_window} rad, more than "
+                                f"the cap procedure.preshear_max_rotation ({p.preshear_max_rotation} rad) allows; "
+                                "allowed: steady_window ≤ preshear_max_rotation / 2")
         if p.peak_window >= p.shear_rotation:
             raise SpecError("procedure.peak_window", "must be smaller than the shear rotation")
         positive("numerics.dt_fraction", n.dt_fraction)
@@ -455,24 +516,32 @@ PROCEDURES: dict[str, Procedure] = {
 #: particle touching a rib oscillated with a sign flip every step, ×2–3 per step, and escaped;
 #: LIGGGHTS lost atoms at tiny); sticking contacts stack the tangential and rolling springs' rotational
 #: stiffness, and a rib adds one more wall contact, the stiffest kind (R* = r) ``paper`` is the reference paper's converged setting;
-#: ``quick`` fits a 2-core machine; ``tiny`` is for tests and is noisy by design.
+#: ``quick`` fits a 2-core machine; ``tiny`` is for tests and ``make run``.
+#: Every preset preshears as the FT4 does, until τ/σ is steady (two windows of 0.1 rad within 5 %;
+#: at least 0.3 rad, at most 1 rad): the former fixed preshears of 0.12–0.15 rad ended inside the
+#: transient (at tiny τ/σ fell from 0.94 to a steady 0.55 over the first 0.45 rad of one preshear),
+#: and with the blades riding on the bed's top (see INSERTION_STRESS_FRACTION) that made most of the
+#: seed scatter. The shear windows of 0.3 rad hold the peaks that 0.12 rad cut off (README, How
+#: noisy each preset is).
+STEADY_PRESHEAR = {"preshear_rotation": 0.30, "preshear_max_rotation": 1.0, "steady_window": 0.1,
+                   "steady_tolerance": 0.05}
 FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
     "paper": {
         "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
-        "procedure": {"rotation_rate": 0.5, "preshear_rotation": 0.30, "shear_rotation": 0.20,
+        "procedure": {"rotation_rate": 0.5, **STEADY_PRESHEAR, "shear_rotation": 0.30,
                       "settle_time": 0.02, "peak_window": 0.01},
         "numerics": {"dt_fraction": 0.05, "sample_interval": 2.0e-4},
     },
     "quick": {
         "particles_per_diameter": 12.0, "height_ratio": 0.88, "blade_count": 12, "blade_height_d": 2.0, "base_ribs": 12,
-        "procedure": {"rotation_rate": 5.0, "preshear_rotation": 0.15, "shear_rotation": 0.12,
-                      "settle_time": 0.005, "peak_window": 0.015},
+        "procedure": {"rotation_rate": 5.0, **STEADY_PRESHEAR, "shear_rotation": 0.30,
+                      "settle_time": 0.005, "peak_window": 0.03},
         "numerics": {"dt_fraction": 0.15, "sample_interval": 2.0e-4},
     },
     "tiny": {
         "particles_per_diameter": 9.0, "height_ratio": 0.88, "blade_count": 8, "blade_height_d": 2.0, "base_ribs": 8,
-        "procedure": {"rotation_rate": 6.0, "preshear_rotation": 0.12, "shear_rotation": 0.12,
-                      "settle_time": 0.004, "peak_window": 0.015},
+        "procedure": {"rotation_rate": 6.0, **STEADY_PRESHEAR, "shear_rotation": 0.30,
+                      "settle_time": 0.004, "peak_window": 0.03},
         "numerics": {"dt_fraction": 0.15, "sample_interval": 2.0e-4},
     },
 }
@@ -610,6 +679,74 @@ def locus_warning(normal_stress: np.ndarray, peak_shear_stress: np.ndarray) -> s
             "pool seeds (seeds_per_point) or use a finer cell (README, How noisy each preset is)")
 
 
+def steady_window_samples(rotation: np.ndarray, window: float) -> int:
+    """Samples in one steady-state window of ``window`` rad: window / (rotation per sample),
+    rounded, at least 1; ``rotation`` (rad, shape (n,), n ≥ 2) is a step's record."""
+    rot = np.asarray(rotation, dtype=float)
+    per_sample = (rot[-1] - rot[0]) / max(rot.size - 1, 1)
+    return max(1, int(round(window / per_sample))) if per_sample > 0 else 1
+
+
+def preshear_drift(rotation: np.ndarray, shear_stress: np.ndarray, normal_stress: np.ndarray,
+                   window: float) -> float:
+    """How far from steady a preshear ended: the relative difference of τ/σ (mean τ over mean σ)
+    between the last M samples and the M before them, |m_last − m_before| / |m_last|, with M the
+    samples in ``window`` rad (:func:`steady_window_samples`); NaN when there are fewer than 2M.
+
+    Args:
+        rotation: head rotation since the step's start, shape (n,), rad, evenly sampled.
+        shear_stress, normal_stress: τ and σ, shape (n,), Pa.
+        window: width of each window, rad.
+
+    Every backend stops a capped preshear (``Procedure.preshear_max_rotation``) by this quantity
+    (numba_dem calls it, YADE's script carries a copy, LIGGGHTS' script evaluates the same window
+    means with two ``fix ave/time``), checked on the schedule of :func:`steady_schedule`.
+    """
+    tau = np.asarray(shear_stress, dtype=float)
+    if tau.size < 2:
+        return math.nan
+    m = steady_window_samples(rotation, window)
+    if tau.size < 2 * m:
+        return math.nan
+    sig = np.asarray(normal_stress, dtype=float)
+    m_last = float(np.sum(tau[-m:]) / np.sum(sig[-m:]))
+    m_before = float(np.sum(tau[-2 * m:-m]) / np.sum(sig[-2 * m:-m]))
+    return abs(m_last - m_before) / abs(m_last) if m_last != 0 else math.inf
+
+
+def steady_schedule(procedure: "Procedure", rotation_per_sample: float) -> tuple[int, int, int, int]:
+    """When a backend checks a capped preshear for steadiness, in samples of ``rotation_per_sample``
+    rad: (first check, last sample, window M, check every). The first check comes after
+    max(the minimum rotation, 2M) samples, then one every max(1, M // 5) samples until the cap;
+    every backend follows it, so the same record stops at the same sample."""
+    n_min = max(2, int(math.ceil(procedure.preshear_rotation / rotation_per_sample - 1e-9)))
+    cap = procedure.preshear_max_rotation
+    n_max = n_min if cap is None else max(n_min, int(math.ceil(cap / rotation_per_sample - 1e-9)))
+    m = max(1, int(round(procedure.steady_window / rotation_per_sample)))
+    return min(max(n_min, 2 * m), n_max), n_max, m, max(1, m // 5)
+
+
+def running_mean_width(rotation: np.ndarray, window: float) -> int:
+    """Samples in the running mean of :func:`find_peak`: ``window`` (rad) over the rotation per
+    sample of ``rotation`` (rad, shape (n,)), rounded, between 1 and n."""
+    rot = np.asarray(rotation, dtype=float)
+    step = (rot[-1] - rot[0]) / max(rot.size - 1, 1) if rot.size else 0.0
+    width = max(1, int(round(window / step))) if step > 0 else 1
+    return min(width, max(rot.size, 1))
+
+
+def stress_at_peak(rotation: np.ndarray, normal_stress: np.ndarray, window: float, centre: int) -> float:
+    """σ (Pa) over the same running-mean window as the peak found at sample ``centre`` by
+    :func:`find_peak`: the mean of ``normal_stress`` (shape (n,)) over those samples. (A single
+    sample's σ, which in a 600-particle bed swings by ±10 % from one sample to the next, put
+    0.08 of seed scatter on the mean peak τ/σ at ``tiny`` where the window's mean put 0.045.)"""
+    if centre < 0:
+        return float("nan")
+    width = running_mean_width(rotation, window)
+    start = max(0, centre - width // 2)
+    return float(np.mean(np.asarray(normal_stress, dtype=float)[start:start + width]))
+
+
 def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> tuple[float, int, float]:
     """The peak of a shear step: the maximum of a running mean of width ``window`` (rad).
 
@@ -627,9 +764,7 @@ def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> 
     if rot.size == 0:
         return float("nan"), -1, float("nan")
     span = rot[-1] - rot[0]
-    step = span / max(rot.size - 1, 1)
-    width = max(1, int(round(window / step))) if step > 0 else 1
-    width = min(width, tau.size)
+    width = running_mean_width(rot, window)
     kernel = np.ones(width) / width
     smooth = np.convolve(tau, kernel, mode="valid")
     i = int(np.argmax(smooth))
@@ -691,9 +826,13 @@ class ShearTestResult:
     """A whole shear test: the steps' time series and what is read off them.
 
     Arrays indexed by shear step k (shape (k,)): ``peak_shear_stress`` (Pa), ``peak_normal_stress``
-    (σ measured at the peak, Pa), ``target_normal_stress`` (Pa), ``peak_position`` (fraction of the
+    (σ measured at the peak: its mean over the peak's running-mean window, Pa; :func:`stress_at_peak`),
+    ``target_normal_stress`` (Pa), ``peak_position`` (fraction of the
     window), ``bulk_density`` (after the preceding preshear, kg/m³), ``preshear_shear_stress``
-    (steady τ of the preceding preshear, Pa), ``inertial_number``.
+    (steady τ of the preceding preshear, Pa), ``inertial_number``, ``preshear_rotation`` (how far
+    the preceding preshear turned, rad) and ``preshear_drift`` (how far from steady it ended,
+    :func:`preshear_drift`; NaN where it was shorter than two steady windows). The last two are
+    empty in results stored before they existed.
     """
 
     steps: tuple[StepRecord, ...]
@@ -707,6 +846,8 @@ class ShearTestResult:
     inertial_number: np.ndarray
     provenance: Provenance
     warnings: tuple[str, ...] = ()
+    preshear_rotation: np.ndarray = field(default_factory=lambda: np.empty(0))
+    preshear_drift: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     @classmethod
     def from_steps(cls, spec: ShearCellSpec, steps: list[StepRecord], bulk_density: list[float],
@@ -726,16 +867,28 @@ class ShearTestResult:
         for k, s in enumerate(shear):
             tau_p, i, where = find_peak(s.rotation, s.shear_stress, spec.procedure.peak_window)
             peaks.append(tau_p)
-            sig.append(float(s.normal_stress[i]) if i >= 0 else float("nan"))
+            sig.append(stress_at_peak(s.rotation, s.normal_stress, spec.procedure.peak_window, i))
             pos.append(where)
             inert.append(inertial_number(spec, s.target_stress))
             if where > 0.95:
                 warns.append(f"shear step {k} (σ = {s.target_stress:.0f} Pa): peak at the window's end "
                              f"({where:.2f}); the shear rotation may be too short")
-        for s in pre:
+        proc = spec.procedure
+        pre_rot, drift = [], []
+        for k, s in enumerate(pre):
             tail = slice(int(0.6 * s.shear_stress.size), None)
             tau_pre.append(float(np.mean(s.shear_stress[tail])) if s.shear_stress.size else float("nan"))
             sig_pre.append(float(np.mean(s.normal_stress[tail])) if s.normal_stress.size else float("nan"))
+            pre_rot.append(float(s.rotation[-1]) if s.rotation.size else float("nan"))
+            drift.append(preshear_drift(s.rotation, s.shear_stress, s.normal_stress, proc.steady_window))
+        if proc.preshear_max_rotation is not None:
+            unsteady = [k for k, d in enumerate(drift) if not d <= proc.steady_tolerance]
+            if unsteady:
+                warns.append(
+                    f"{len(unsteady)} of {len(pre)} preshears ended before τ/σ was steady (preshear "
+                    + ", ".join(f"{k}: {pre_rot[k]:.2f} rad, drift {drift[k]:.1%}" for k in unsteady)
+                    + f"; criterion: ≤ {proc.steady_tolerance:.1%} between two windows of {proc.steady_window} rad, "
+                    f"cap procedure.preshear_max_rotation = {proc.preshear_max_rotation} rad); raise the cap")
         slips = [base_slip(s, spec.procedure.rotation_rate) for s in shear]
         slipped = [(k, v) for k, v in enumerate(slips) if v >= BASE_SPIN_SLIP_FRACTION]
         load = steady_base_load(spec, shear, bulk_density)
@@ -771,6 +924,8 @@ class ShearTestResult:
             inertial_number=np.asarray(inert, dtype=float),
             provenance=provenance,
             warnings=tuple(warns),
+            preshear_rotation=np.asarray(pre_rot[:n], dtype=float),
+            preshear_drift=np.asarray(drift[:n], dtype=float),
         )
 
     @property

@@ -39,7 +39,8 @@ FORMAT = "calibrax-store/1"
 #: the experiment's optional per-point arrays (stores written before they existed read as NaN)
 EXPERIMENT_ARRAYS = ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density")
 RESULT_ARRAYS = ("peak_shear_stress", "peak_normal_stress", "target_normal_stress", "peak_position",
-                 "bulk_density", "preshear_shear_stress", "preshear_normal_stress", "inertial_number")
+                 "bulk_density", "preshear_shear_stress", "preshear_normal_stress", "inertial_number",
+                 "preshear_rotation", "preshear_drift")
 
 
 @dataclass
@@ -440,6 +441,7 @@ def _read_result(group: h5py.Group) -> ShearTestResult:
         s = group["steps"][key]
         steps.append(StepRecord(str(s.attrs["kind"]), float(s.attrs["target_stress"]),
                                 *(s[ch][()] if ch in s else np.empty(0) for ch in StepRecord.CHANNELS)))
-    arrays = {name: group["peaks"][name][()] for name in RESULT_ARRAYS}
+    # a store written before a result array existed lacks it: read it as empty
+    arrays = {name: group["peaks"][name][()] if name in group["peaks"] else np.empty(0) for name in RESULT_ARRAYS}
     return ShearTestResult(steps=tuple(steps), provenance=Provenance(**prov),
                            warnings=tuple(json.loads(group.attrs.get("warnings", "[]"))), **arrays)

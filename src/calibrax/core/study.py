@@ -49,7 +49,11 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
     * ``sigma_sd``: s.d. of σ in the second half of the window / target σ (fraction);
     * ``sigma_offset_at_peak``: σ measured at the τ peak / target σ − 1 (fraction). The peak is the
       largest τ of the window, and τ follows σ, so a servo that lets σ swing reads a higher peak;
-    * ``steady_friction``: mean τ / mean σ over the second half of the window.
+    * ``steady_friction``: mean τ / mean σ over the second half of the window;
+    * ``preshear_rotation``: mean rotation of the preshears, rad (steady preshears stop when τ/σ is
+      steady, so this says how long the powder took to reach it);
+    * ``preshear_drift``: largest relative drift of τ/σ at a preshear's end
+      (:func:`~calibrax.core.sheartest.preshear_drift`; NaN for results stored before it existed).
     """
     sd, offset, friction = [], [], []
     k = 0
@@ -64,7 +68,10 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
             offset.append(float(result.peak_normal_stress[k]) / step.target_stress - 1.0)
         k += 1
     mean = lambda xs: float(np.nanmean(xs)) if xs else math.nan  # noqa: E731
-    return {"sigma_sd": mean(sd), "sigma_offset_at_peak": mean(offset), "steady_friction": mean(friction)}
+    rot, drift = result.preshear_rotation, result.preshear_drift
+    return {"sigma_sd": mean(sd), "sigma_offset_at_peak": mean(offset), "steady_friction": mean(friction),
+            "preshear_rotation": float(np.mean(rot)) if rot.size else math.nan,
+            "preshear_drift": float(np.max(drift)) if drift.size and np.any(np.isfinite(drift)) else math.nan}
 
 
 def _robust_features(result: ShearTestResult) -> dict[str, float]:

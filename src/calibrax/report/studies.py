@@ -102,10 +102,12 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
              "anything else that resists the turning bed (a lateral wall that is not smooth) adds to τ. "
              "Base slip: the bottom layer's spin over the head's rate, measured on every base "
              f"(≥ {BASE_SPIN_SLIP_FRACTION:.0%}: the bed slid on it). Peak τ/σ: τ_peak over the σ measured at "
-             "the peak, and preshear τ/σ, the robust features (mean over steps).", "",
+             "the peak, and preshear τ/σ, the robust features (mean over steps). Preshear: how far the "
+             "preshears turned before τ/σ was steady (mean) and the largest drift of τ/σ between their last two "
+             "windows (above the procedure's tolerance: a preshear stopped at its cap unsteady).", "",
              "| case | backend | s.d. of σ / target | σ at the τ peak / target − 1 | steady τ/σ | peak τ/σ | "
-             "preshear τ/σ | base load | base slip |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "preshear τ/σ | base load | base slip | preshear rotation | preshear drift |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for o in outcomes:
         s = o.summary()
 
@@ -118,7 +120,8 @@ def servo_table(outcomes: list[CaseOutcome]) -> list[str]:
         lines.append(f"| {o.case.label} | {o.case.backend} | {cell('sigma_sd', 100, '.1f', ' %')} | "
                      f"{cell('sigma_offset_at_peak', 100, '+.1f', ' %')} | {cell('steady_friction', 1, '.3f', '')} | "
                      f"{cell('peak_ratio', 1, '.3f', '')} | {cell('preshear_ratio', 1, '.3f', '')} | "
-                     f"{cell('base_load', 100, '.0f', ' %')} | {cell('base_slip', 100, '.0f', ' %')} |")
+                     f"{cell('base_load', 100, '.0f', ' %')} | {cell('base_slip', 100, '.0f', ' %')} | "
+                     f"{cell('preshear_rotation', 1, '.2f', ' rad')} | {cell('preshear_drift', 100, '.1f', ' %')} |")
     return lines + [""]
 
 

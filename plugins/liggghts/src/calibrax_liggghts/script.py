@@ -33,7 +33,9 @@ from pathlib import Path
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import GRAVITY, ShearCellSpec, base_layer_bounds
+from calibrax.core.sheartest import (GRAVITY, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
+                                     INSERTION_TOLERANCE_RADII, ShearCellSpec, base_layer_bounds,
+                                     insertion_time_limit, steady_schedule)
 from calibrax.errors import SpecError
 
 from . import mesh as meshes
@@ -44,7 +46,7 @@ SCRIPT_NAME = "in.calibrax"
 DATA_NAME = "particles.data"
 
 #: friction while pouring (numba_dem: POUR_FRICTION)
-POUR_FRICTION = 0.1
+POUR_FRICTION = INSERTION_FRICTION
 #: gravity multiplier while pouring (numba_dem: POUR_GRAVITY)
 POUR_GRAVITY = 3.0
 #: the pour ends when the fastest particle is slower than this, m/s
@@ -288,6 +290,27 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # the head turns while it descends and consolidates, so that the blades cut into the bed (as the
     # FT4 does, and numba_dem and YADE)
     add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
+    # blade insertion (numba_dem's insert_blades): with the pour's friction and no rolling resistance
+    # on every contact (the particles back in the pour's atom type), the turning head comes down at
+    # APPROACH_SPEED while it carries less than INSERTION_STRESS_FRACTION of the preshear load and
+    # waits while it carries more, until its face is down to the poured bed's highest particle top
+    add("variable ztop0 equal ${ztop}")
+    add(f"variable zgoal equal {num(INSERTION_TOLERANCE_RADII * r)}+${{ztop0}}")
+    add(f"set group all type {integer(T_POUR)}")
+    add(f"variable fins equal {num(INSERTION_STRESS_FRACTION * f_pre)}")
+    ins_chunk = max(1, per // 8)
+    n_ins = int(math.ceil(insertion_time_limit(spec, APPROACH_SPEED) / (ins_chunk * dt)))
+    add(f"variable iins loop {integer(n_ins)}")
+    add("label insert")
+    add('if "${zh} <= ${zgoal}" then "jump SELF inserted"')
+    add(f'if "${{fup}} < ${{fins}}" then "variable vz equal {num(-APPROACH_SPEED)}" else "variable vz equal 0.0"')
+    add(f"run {integer(ins_chunk)}")
+    add("next iins")
+    add("jump SELF insert")
+    add("label inserted")
+    add("variable vz equal 0.0")
+    add(f"set group all type {integer(T_PART)}")
+    add('print "CALIBRAX inserted ${stp} ${zh} ${ztop0} ${zgoal}"')
     add(f"variable ftgt equal {num(f_pre)}")
     # approach: straight down at APPROACH_SPEED until the head carries the target load (checked every
     # eighth of a sample interval: ≤ 5 µm of travel at 0.2 m/s in quick), then the dynamic head takes
@@ -382,7 +405,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
         if p.settle_time > 0:
             add(f"run {chunk(p.settle_time)}")
 
-    def rotate(kind: str, stress: float, rotation: float) -> None:
+    def rotate(kind: str, stress: float, rotation: float, until_steady: bool = False) -> None:
         j = len(steps)
         nsamples = max(2, int(math.ceil(rotation / p.rotation_rate / (per * dt))))
         fname = f"step_{j:02d}.txt"
@@ -391,7 +414,30 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
         add(f"fix rec all ave/time 1 {integer(per)} {integer(per)} v_fup v_tres file {fname}")
         add(f'fix recz all print {integer(per)} "${{stp}} ${{zh}} ${{bspin}}" file z_{fname} screen no')
         add(f'print "CALIBRAX begin {integer(j)} ${{stp}}"')
-        add(f"run {integer(nsamples * per)}")
+        if until_steady and p.preshear_max_rotation is not None:
+            # numba_dem's steady preshear: the window means of τ ∝ torque and σ ∝ force over the last
+            # M samples (sw1) and the last 2M (sw2; the M before: 2·sw2 − sw1), checked on
+            # steady_schedule's samples, the relative drift of their ratio against the tolerance
+            first, nsamples, m, every = steady_schedule(p, p.rotation_rate * per * dt)
+            add(f"fix sw1 all ave/time {integer(per)} 1 {integer(per)} f_rec[1] f_rec[2] ave window {integer(m)}")
+            add(f"fix sw2 all ave/time {integer(per)} 1 {integer(per)} f_rec[1] f_rec[2] ave window {integer(2 * m)}")
+            add("variable mlast equal f_sw1[2]/f_sw1[1]")
+            add("variable mbefore equal (2*f_sw2[2]-f_sw1[2])/(2*f_sw2[1]-f_sw1[1])")
+            add("variable drift equal abs(v_mlast-v_mbefore)/abs(v_mlast)")
+            add(f"run {integer(first * per)}")
+            checks = (nsamples - first + every - 1) // every
+            if checks > 0:
+                add(f"variable ist{integer(j)} loop {integer(checks)}")
+                add(f"label steady{integer(j)}")
+                add(f'if "${{drift}} <= {num(p.steady_tolerance)}" then "jump SELF steadied{integer(j)}"')
+                add(f"run {integer(every * per)} pre no post no")
+                add(f"next ist{integer(j)}")
+                add(f"jump SELF steady{integer(j)}")
+                add(f"label steadied{integer(j)}")
+            add("unfix sw2")
+            add("unfix sw1")
+        else:
+            add(f"run {integer(nsamples * per)}")
         add("unfix rec")
         add("unfix recz")
         add("variable omega equal 0.0")
@@ -401,7 +447,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     for k, sigma in enumerate(p.shear_stresses):
         if k > 0:
             settle(p.preshear_stress)
-        rotate("preshear", p.preshear_stress, p.preshear_rotation)
+        rotate("preshear", p.preshear_stress, p.preshear_rotation, until_steady=True)
         add(f'print "CALIBRAX bulk {integer(k)} ${{bulk}}"')
         settle(sigma)
         rotate("shear", sigma, p.shear_rotation)

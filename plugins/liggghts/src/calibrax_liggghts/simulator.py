@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, Provenance, ShearCellSpec, ShearTestResult,
-                                     StepRecord, shear_stress_from_torque)
+                                     StepRecord, insertion_time_limit, shear_stress_from_torque)
 from calibrax.core.simulator import check_capabilities
 from calibrax.errors import EngineNotFound, SimulationFailed
 
 from . import __version__
-from .script import SCRIPT_NAME, ScriptPlan, write_inputs
+from .script import APPROACH_SPEED, SCRIPT_NAME, ScriptPlan, write_inputs
 
 __all__ = ["LiggghtsSimulator", "find_liggghts", "run_liggghts", "INSTALL_HINT"]
 
@@ -130,6 +130,7 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
     marks = _markers(screen)
     tail = _tail(screen)
     begin = {int(m[1]): int(m[2]) for m in marks if m[0] == "begin"}
+    end = {int(m[1]): int(m[2]) for m in marks if m[0] == "end"}
     for m in marks:
         if m[0] == "end" and len(m) > 4 and float(m[4]) > 0:
             raise SimulationFailed(f"{float(m[4]):.0f} particles escaped the cell by the end of step {m[1]}", tail,
@@ -142,6 +143,9 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
             info["bed_top_after_pour"] = float(m[2])
         elif m[0] == "placed":
             placed_step = float(m[1])
+        elif m[0] == "inserted":  # the head's face over the poured bed's top after insertion, radii
+            info["insertion_gap_radii"] = (float(m[2]) - float(m[3])) / spec.radius
+            info["insertion_reached"] = float(float(m[2]) <= float(m[4]))
         elif m[0] == "consolidated":
             if placed_step is not None:  # the head turns from here until consolidated, s
                 info["consolidation_time"] = (float(m[1]) - placed_step) * plan.dt
@@ -168,6 +172,8 @@ def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Pa
         except (OSError, ValueError) as exc:
             raise SimulationFailed(f"cannot read LIGGGHTS output {fname}: {exc}", tail, kind="crash") from exc
         s0 = begin.get(j)
+        if s0 is not None and j in end:  # a steady preshear ends when its τ/σ is steady: count its samples
+            nsamples = (end[j] - s0) // plan.sample_steps
         if s0 is None or ft.shape[0] < nsamples:
             raise SimulationFailed(f"step {j} ({kind}) has {ft.shape[0]} of {nsamples} samples", tail, kind="crash")
         ft = ft[:nsamples]
@@ -247,6 +253,10 @@ class LiggghtsSimulator:
         if bad:
             warnings.append(f"the servo held σ within 5 % of its target in only {len(errors) - len(bad)} of "
                             f"{len(errors)} steps (worst {100 * max(bad, key=abs):+.1f} %)")
+        if info.get("insertion_reached", 1.0) < 0.5:
+            warnings.append(f"blade insertion: after {insertion_time_limit(spec, APPROACH_SPEED):.3g} s "
+                            f"the head's face was still {info['insertion_gap_radii']:.2f} particle radii above the "
+                            "poured bed's top: the blades are not fully in the bed")
         if info.get("consolidation_settled", 1.0) < 0.5:
             warnings.append(f"consolidation: the head was still moving after "
                             f"{spec.procedure.consolidation_time_limit:.3g} s "

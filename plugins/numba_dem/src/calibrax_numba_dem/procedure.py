@@ -17,18 +17,21 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, GRAVITY, ShearCellSpec, StepRecord,
-                                     base_layer_bounds, layer_spin, shear_stress_from_torque)
+from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, GRAVITY, INSERTION_FRICTION,
+                                     INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, insertion_time_limit,
+                                     ShearCellSpec, StepRecord, base_layer_bounds, layer_spin,
+                                     preshear_drift, shear_stress_from_torque, steady_schedule)
 from calibrax.errors import SimulationFailed
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params
 from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX,
-                     H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_WALL, P_MUR, P_MUR_BASE,
-                     P_MUR_WALL, P_USE_HEAD)
+                     H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR, P_MUR_BASE,
+                     P_MUR_HEAD, P_MUR_WALL, P_USE_HEAD)
 
-#: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's)
-POUR_FRICTION = 0.1
+#: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's), and
+#: while the blades go in
+POUR_FRICTION = INSERTION_FRICTION
 #: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after).
 #: The pour is the same on every backend (LIGGGHTS' and YADE's POUR_GRAVITY, POUR_SPEED): the bulk
 #: density after preshear still remembers it
@@ -93,6 +96,7 @@ class ShearTestDriver:
         self.bulk_density: list[float] = []
         self.consolidation_time = math.nan  # s, set by consolidate()
         self.consolidation_rotation = math.nan  # rad the head turned while consolidating
+        self.insertion_gap = math.nan  # head face above the poured bed's highest particle after insertion, radii
         self.sigma_errors: list[float] = []
         self.warnings: list[str] = []
 
@@ -190,6 +194,8 @@ class ShearTestDriver:
                  f"servo mass {mass:.3g} kg, damping {damp:.3g} N s/m, tau_ref {tau:.3g} s")
         # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
         h[H_OMEGA] = spec.procedure.rotation_rate
+        self.insert_blades(highest)
+        self._set_servo(spec.procedure.preshear_stress, APPROACH_SPEED)
         z_prev = h[H_Z]
         t0 = self.time
         phi0 = h[H_PHI]
@@ -220,6 +226,37 @@ class ShearTestDriver:
         self.log(f"t={self.time:.5f} s consolidated in {self.consolidation_time:.4f} s (head turned "
                  f"{self.consolidation_rotation:.3f} rad): head at {h[H_Z] * 1e3:.2f} mm, σ = {sigma:.0f} Pa "
                  f"(target {target:.0f}), bulk density {self.bulk():.0f} kg/m³")
+
+    def insert_blades(self, highest: float) -> None:
+        """Take the turning blades into the bed under a low stress
+        (:data:`~calibrax.core.sheartest.INSERTION_STRESS_FRACTION` of the preshear's) with the
+        friction of the pour on every contact and no rolling resistance, until the head's lower face has come down to ``highest`` (m), the
+        top of the poured bed's highest particle; then switch the material's friction back on.
+        Without this the blade edges carried the whole preshear stress on the bed's top and never
+        went in (see ``calibrax.core.sheartest.INSERTION_STRESS_FRACTION``)."""
+        spec, s, h = self.spec, self.sys, self.sys.head
+        p = s.params
+        # the pour's contact laws on every contact (as LIGGGHTS' pour atom type and YADE's pour table)
+        saved = {key: p[key] for key in (P_MU, P_MUR, P_MU_HEAD, P_MUR_HEAD, P_MU_BASE, P_MUR_BASE, P_MU_WALL,
+                                         P_MUR_WALL)}
+        p[P_MU] = p[P_MU_HEAD] = p[P_MU_BASE] = INSERTION_FRICTION
+        p[P_MU_WALL] = min(spec.geometry.wall_friction, INSERTION_FRICTION)
+        p[P_MUR] = p[P_MUR_HEAD] = p[P_MUR_BASE] = p[P_MUR_WALL] = 0.0
+        self._set_servo(INSERTION_STRESS_FRACTION * spec.procedure.preshear_stress, APPROACH_SPEED)
+        t0 = self.time
+        t_max = insertion_time_limit(spec, APPROACH_SPEED)
+        goal = highest + INSERTION_TOLERANCE_RADII * spec.radius
+        while h[H_Z] > goal and self.time - t0 < t_max:
+            self._run(1.0e-3, "blade insertion")
+        for key, value in saved.items():
+            p[key] = value
+        self.insertion_gap = float((h[H_Z] - highest) / spec.radius)
+        if h[H_Z] > goal:
+            self.warnings.append(f"blade insertion: after {t_max:.3g} s the head's face was still "
+                                 f"{self.insertion_gap:.2f} particle radii above the poured bed's top: the blades "
+                                 "are not fully in the bed")
+        self.log(f"t={self.time:.5f} s blades inserted in {self.time - t0:.4f} s: head face at "
+                 f"{h[H_Z] * 1e3:.2f} mm, the poured bed's highest particle reached {highest * 1e3:.2f} mm")
 
     def bulk(self) -> float:
         """Bulk density of the bed under the head, kg/m³: particle mass below the head's face over
@@ -265,15 +302,22 @@ class ShearTestDriver:
                  f"σ = {f / self.area:.0f} Pa, τ = "
                  f"{float(shear_stress_from_torque(torque, self.spec.geometry.head_radius)):.0f} Pa")
 
-    def rotate(self, kind: str, stress: float, rotation: float) -> StepRecord:
-        """Rotate the head by ``rotation`` rad at the procedure's rate under ``stress``; record."""
+    def rotate(self, kind: str, stress: float, rotation: float, until_steady: bool = False) -> StepRecord:
+        """Rotate the head by ``rotation`` rad at the procedure's rate under ``stress``; record.
+        With ``until_steady`` and a capped procedure, go on past ``rotation`` until τ/σ is steady
+        (:func:`~calibrax.core.sheartest.preshear_drift` within the procedure's tolerance, checked
+        on the schedule of :func:`~calibrax.core.sheartest.steady_schedule`) or the cap."""
         spec, s, h = self.spec, self.sys, self.sys.head
+        proc = spec.procedure
         self._set_servo(stress, SHEAR_SPEED_LIMIT)
-        rate = spec.procedure.rotation_rate
+        rate = proc.rotation_rate
         h[H_OMEGA] = rate
         phi0 = h[H_PHI]
         per = max(1, int(round(spec.numerics.sample_interval / self.dt)))
         nsamples = max(2, int(math.ceil(rotation / rate / (per * self.dt))))
+        steady = until_steady and proc.preshear_max_rotation is not None
+        if steady:
+            first, nsamples, _, every = steady_schedule(proc, rate * per * self.dt)
         rec = np.empty((6, nsamples))
         z_low, z_high = base_layer_bounds(spec)
         s.take_accumulators()
@@ -288,6 +332,11 @@ class ShearTestDriver:
             rec[5, k] = layer_spin(s.x, s.v, z_low, z_high)
             if k % 20 == 0:
                 self._check(kind)
+            if (steady and k + 1 >= first and (k + 1 - first) % every == 0 and k + 1 < nsamples
+                    and preshear_drift(rec[1, :k + 1], rec[2, :k + 1], rec[3, :k + 1], proc.steady_window)
+                    <= proc.steady_tolerance):
+                rec = rec[:, :k + 1]
+                break
         self._check(kind)
         h[H_OMEGA] = 0.0
         step = StepRecord(kind=kind, target_stress=stress, time=rec[0], rotation=rec[1], shear_stress=rec[2],
@@ -296,7 +345,8 @@ class ShearTestDriver:
         self.sigma_errors.append(err)
         self.log(f"t={self.time:.5f} s {kind} at {stress:.0f} Pa: mean σ {np.mean(rec[3]):.0f} Pa "
                  f"({100 * err:+.1f} %), σ sd {np.std(rec[3]):.0f} Pa, τ max {np.max(rec[2]):.0f} Pa, "
-                 f"τ end {np.mean(rec[2][-max(1, nsamples // 5):]):.0f} Pa, head {h[H_Z] * 1e3:.2f} mm")
+                 f"τ end {np.mean(rec[2][-max(1, rec.shape[1] // 5):]):.0f} Pa, head {h[H_Z] * 1e3:.2f} mm, "
+                 f"turned {rec[1, -1]:.3f} rad")
         return step
 
     def run(self) -> None:
@@ -307,7 +357,7 @@ class ShearTestDriver:
         for k, sigma in enumerate(p.shear_stresses):
             if k > 0:
                 self.settle(p.preshear_stress)
-            self.steps.append(self.rotate("preshear", p.preshear_stress, p.preshear_rotation))
+            self.steps.append(self.rotate("preshear", p.preshear_stress, p.preshear_rotation, until_steady=True))
             self.bulk_density.append(self.bulk())
             self.settle(sigma)
             self.steps.append(self.rotate("shear", sigma, p.shear_rotation))

@@ -79,5 +79,6 @@ class NumbaDEMSimulator:
                                  "servo_sigma_errors": driver.sigma_errors,
                                  "consolidation_time": driver.consolidation_time,
                                  "consolidation_rotation": driver.consolidation_rotation,
+                                 "insertion_gap_radii": driver.insertion_gap,
                                  "stress_area": "pi*head_radius**2"})
         return ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density, prov, driver.warnings)

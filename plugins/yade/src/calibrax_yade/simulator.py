@@ -38,8 +38,10 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.packing import initial_packing
-from calibrax.core.sheartest import (GRAVITY, Provenance, ShearCellSpec, ShearTestResult, StepRecord,
-                                     base_layer_bounds, shear_stress_from_torque)
+from calibrax.core.sheartest import (GRAVITY, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
+                                     INSERTION_TOLERANCE_RADII, Provenance,
+                                     ShearCellSpec, ShearTestResult, StepRecord, base_layer_bounds,
+                                     insertion_time_limit, shear_stress_from_torque, steady_schedule)
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
@@ -50,7 +52,7 @@ from .runner import find_yade, run_yade, script_path, write_params, yade_version
 __all__ = ["YadeSimulator", "build_params", "SERVO_SUBSTEPS"]
 
 #: friction while pouring and gravity multiplier (DESIGN §3: pour with low friction, then switch)
-POUR_FRICTION = 0.1
+POUR_FRICTION = INSERTION_FRICTION
 POUR_GRAVITY = 3.0
 #: servo speed limits (m/s), approach clearance (particle diameters), blow-up speed (m/s): numba_dem's
 APPROACH_SPEED = 0.2
@@ -103,6 +105,10 @@ def build_params(spec: ShearCellSpec) -> dict:
         "preshear_stress": p.preshear_stress, "shear_stresses": [float(s) for s in p.shear_stresses],
         "rotation_rate": p.rotation_rate, "preshear_rotation": p.preshear_rotation,
         "shear_rotation": p.shear_rotation, "settle_time": p.settle_time,
+        "steady_schedule": _steady_schedule(spec), "steady_tolerance": p.steady_tolerance,
+        "insertion_stress": INSERTION_STRESS_FRACTION * p.preshear_stress,
+        "insertion_time_limit": insertion_time_limit(spec, APPROACH_SPEED),
+        "insertion_tolerance": INSERTION_TOLERANCE_RADII * spec.radius,
         "consolidation_min_time": p.consolidation_min_time, "consolidation_time_limit": p.consolidation_time_limit,
         "sample_interval": spec.numerics.sample_interval, "servo_substeps": SERVO_SUBSTEPS,
         "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
@@ -113,6 +119,15 @@ def build_params(spec: ShearCellSpec) -> dict:
         "wall_rolling": 1.0 if spec.effective_wall_rolling_friction() > 0 else 0.0,
         "wall_rolling_period": float(WALL_ROLLING_PERIOD),
     }
+
+
+def _steady_schedule(spec: ShearCellSpec) -> list[int] | None:
+    """:func:`~calibrax.core.sheartest.steady_schedule` in the script's samples (its ``rotate``
+    samples every NSUB · round(sample_interval / (Δt NSUB)) steps), or None for fixed preshears."""
+    if spec.procedure.preshear_max_rotation is None:
+        return None
+    per = SERVO_SUBSTEPS * max(1, int(round(spec.numerics.sample_interval / spec.time_step / SERVO_SUBSTEPS)))
+    return list(steady_schedule(spec.procedure, spec.procedure.rotation_rate * per * spec.time_step))
 
 
 def _array(rec: dict, key: str, n: int) -> np.ndarray:
@@ -229,6 +244,7 @@ class YadeSimulator:
                           particle_count=int(out["particles"]), threads=threads,
                           extra={"time_step": spec.time_step, "simulated_time": out.get("simulated_time"),
                                  "servo_sigma_errors": out.get("sigma_errors", []),
+                                 "insertion_gap_radii": out.get("insertion_gap_radii"),
                                  "stress_area": "pi*head_radius**2", "servo_substeps": SERVO_SUBSTEPS,
                                  "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
                                  "shear_restitution": SHEAR_RESTITUTION,

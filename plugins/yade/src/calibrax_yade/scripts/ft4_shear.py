@@ -295,6 +295,7 @@ def switch_friction(table, krot, eta):
 
 # ------------------------------------------------------------------ phases
 WARN = []
+INSERTION_GAP = [float("nan")]
 STEPS = []
 BULK = []
 SIGMA_ERR = []
@@ -350,6 +351,8 @@ def consolidate():
         "tau_ref %.3g s" % (O.time, z0 * 1e3, top * 1e3, len(ids), mass, damp, tau))
     # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
     S["omega"] = RATE
+    insert_blades(highest)
+    set_servo(P["preshear_stress"], P["approach_speed"])
     z_prev = head_z()
     t0 = O.time
     phi0 = S["phi"]
@@ -379,6 +382,36 @@ def consolidate():
     S["omega"] = 0.0
     log("t=%.5f s consolidated in %.4f s (head turned %.3f rad): head at %.2f mm, sigma = %.0f Pa (target %.0f), "
         "bulk density %.0f kg/m3" % (O.time, O.time - t0, S["phi"] - phi0, head_z() * 1e3, sigma, target, bulk()))
+
+
+def insert_blades(highest):
+    """numba_dem's insert_blades: the turning blades go into the bed under insertion_stress with the
+    pour's friction (no rolling resistance) until the head's face is down to ``highest`` (m), the
+    poured bed's highest particle top, at most insertion_time_limit s; then the material's friction."""
+    switch_friction(POUR_FRICTION, 0.0, 0.0)
+    set_servo(P["insertion_stress"], P["approach_speed"])
+    t0 = O.time
+    goal = highest + P["insertion_tolerance"]
+    while head_z() > goal and O.time - t0 < P["insertion_time_limit"]:
+        run_time(1.0e-3, "blade insertion")
+    switch_friction(FRICTION, P["krot"], P["eta"])
+    gap = (head_z() - highest) / R0
+    INSERTION_GAP[0] = gap
+    if head_z() > goal:
+        WARN.append("blade insertion: after %.3g s the head's face was still %.2f particle radii above the poured "
+                    "bed's top: the blades are not fully in the bed" % (P["insertion_time_limit"], gap))
+    log("t=%.5f s blades inserted in %.4f s: head face at %.2f mm, the poured bed's highest particle reached %.2f mm"
+        % (O.time, O.time - t0, head_z() * 1e3, highest * 1e3))
+
+
+def preshear_drift(tau, sig, m):
+    """calibrax.core.sheartest.preshear_drift (this script runs under YADE's own Python): the relative
+    difference of mean tau / mean sigma between the last m samples and the m before them."""
+    if len(tau) < 2 * m:
+        return float("nan")
+    m_last = sum(tau[-m:]) / sum(sig[-m:])
+    m_before = sum(tau[-2 * m:-m]) / sum(sig[-2 * m:-m])
+    return abs(m_last - m_before) / abs(m_last) if m_last != 0 else float("inf")
 
 
 def unload_torque(max_rotation=0.05):
@@ -422,12 +455,17 @@ def base_spin():
     return total / count if count else float("nan")
 
 
-def rotate(kind, stress, rotation):
+def rotate(kind, stress, rotation, steady=None):
+    """numba_dem's rotate: ``rotation`` rad; with ``steady`` = (first check, last sample, window,
+    check every) in samples (calibrax.core.sheartest.steady_schedule, computed by the plugin) on
+    until preshear_drift is within steady_tolerance or the last sample."""
     set_servo(stress, P["shear_speed_limit"])
     S["omega"] = RATE
     phi0 = S["phi"]
     per = NSUB * max(1, int(round(P["sample_interval"] / DT / NSUB)))
     nsamples = max(2, int(math.ceil(rotation / RATE / (per * DT))))
+    if steady:
+        first, nsamples, window, every = steady
     rec = {"kind": kind, "target_stress": stress, "time": [], "rotation": [], "force": [], "torque": [],
            "head_height": [], "wall_torque": [], "base_spin": []}
     take_accumulators()
@@ -443,6 +481,10 @@ def rotate(kind, stress, rotation):
         rec["base_spin"].append(base_spin())
         if k % 20 == 0:
             check(kind)
+        if steady and k + 1 >= first and (k + 1 - first) % every == 0 and k + 1 < nsamples:
+            # tau and sigma are the torque and force times constants, which the ratio cancels
+            if preshear_drift(rec["torque"], rec["force"], window) <= P["steady_tolerance"]:
+                break
     check(kind)
     S["omega"] = 0.0
     mean_sigma = sum(rec["force"]) / len(rec["force"]) / AREA
@@ -462,7 +504,7 @@ def main():
     for k, sigma in enumerate(P["shear_stresses"]):
         if k > 0:
             settle(P["preshear_stress"])
-        STEPS.append(rotate("preshear", P["preshear_stress"], P["preshear_rotation"]))
+        STEPS.append(rotate("preshear", P["preshear_stress"], P["preshear_rotation"], P["steady_schedule"]))
         BULK.append(bulk())
         settle(sigma)
         STEPS.append(rotate("shear", sigma, P["shear_rotation"]))
@@ -474,6 +516,7 @@ def main():
     log("done: %.4f s simulated in %.1f s wall time, %d steps" % (O.time, wall, O.iter))
     write_json("result.json", {"yade_version": yade.config.version, "particles": N, "steps": STEPS,
                                "bulk_density": BULK, "warnings": WARN, "sigma_errors": SIGMA_ERR,
+                               "insertion_gap_radii": INSERTION_GAP[0],
                                "simulated_time": O.time, "iterations": O.iter, "wall_time": wall,
                                "threads": O.numThreads})
     LOG.close()
