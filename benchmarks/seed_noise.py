@@ -6,6 +6,15 @@ against the experiment with each metric and count how many fall within the metri
     .venv/bin/python benchmarks/seed_noise.py --preset tiny --seeds 200-209 --set youngs_modulus=2e10 \\
         --set sliding_friction=0.35 --experiment examples/data/pseudo-numba-tiny.yaml --metric c_aif --metric robust
 
+Compare cells and procedures side by side, in one run, by information per CPU-second: each
+``--variant LABEL=JSON`` is the preset with those spec changes (as ``ShearCellSpec.replace`` takes
+them); the table gives, per variant, the seed s.d. of the mean peak τ/σ, the preshears' τ/σ and the
+bulk density, the CPU time per test and s²·CPU (lower: more information per CPU-second), and the
+mean peak τ/σ of every seed:
+
+    .venv/bin/python benchmarks/seed_noise.py --preset tiny --seeds 1-10 \
+        --variant 'short windows={"procedure": {"shear_rotation": 0.2}}' --variant 'as preset={}'
+
 Material defaults to Table 1 of the reference paper. Each seed's whole result is saved in the
 --cache folder as it finishes, and a seed already there is not run again, so an interrupted run
 resumes and a second metric costs no simulation. --spread-out writes the seed spread of the robust metric's features as a YAML
@@ -16,10 +25,10 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import json
 import math
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -33,23 +42,38 @@ def _seeds(text: str) -> list[int]:
     return out
 
 
-def _spec(args: argparse.Namespace, seed: int):
+def _spec(args: argparse.Namespace, seed: int, changes: dict | None = None):
     from calibrax import ShearCellSpec
 
     material = {k: float(v) for k, _, v in (s.partition("=") for s in args.set)}
     geometry = {k: float(v) if "." in v or "e" in v else int(v) for k, _, v in (s.partition("=") for s in args.geometry)}
-    return ShearCellSpec.preset(args.preset, args.procedure, material=material, geometry=geometry,
-                                numerics={"seed": seed, "threads": 1}).validate()
+    spec = ShearCellSpec.preset(args.preset, args.procedure, material=material, geometry=geometry)
+    return spec.replace(**(changes or {})).replace(numerics={"seed": seed, "threads": 1}).validate()
 
 
-def run_seed(args: argparse.Namespace, seed: int, folder: Path) -> int:
+def _variants(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[tuple[str, dict]]:
+    """The ``--variant LABEL=JSON`` options as (label, spec changes); none: the preset alone."""
+    out = []
+    for text in args.variant:
+        label, sep, blob = text.partition("=")
+        try:
+            changes = json.loads(blob) if sep else None
+        except json.JSONDecodeError as exc:
+            parser.error(f"--variant {text!r}: the part after '=' must be JSON spec changes ({exc})")
+        if not label or not isinstance(changes, dict):
+            parser.error(f"--variant {text!r}: give LABEL=JSON, e.g. 'long={{\"procedure\": {{\"shear_rotation\": 0.4}}}}'")
+        out.append((label, changes))
+    return out
+
+
+def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | None = None) -> int:
     """One simulation, saved whole to ``folder/seed_<seed>.h5`` (written aside, then renamed)."""
     import h5py
 
     from calibrax import get_manager
     from calibrax.core.store import _write_result
 
-    spec = _spec(args, seed)
+    spec = _spec(args, seed, changes)
     with tempfile.TemporaryDirectory() as work:
         result = get_manager().create("simulator", args.simulator).simulate(spec, Path(work))
     tmp = folder / f".seed_{seed}.h5.tmp"
@@ -82,7 +106,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--metric", action="append", default=[], help="metric name (repeatable) for --experiment")
     p.add_argument("--spread-out", type=Path, help="write the robust metric's seed_spread YAML fragment here")
     p.add_argument("--spread-in", type=Path, help="score with the robust metric given this seed_spread fragment too")
+    p.add_argument("--variant", action="append", default=[], metavar="LABEL=JSON",
+                   help="compare variants of the preset side by side (spec changes as JSON, repeatable)")
     args = p.parse_args(argv)
+    if args.variant:
+        return compare(args, _variants(args, p))
     from calibrax.core.campaign import EXPERIMENT_SEED_BASE
 
     seeds = _seeds(args.seeds)
@@ -144,6 +172,54 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| {name} | {', '.join(f'{x:.2f}' for x in d)} | {limit:.3g} | {inside} of {len(d)} | "
                   f"{inside / len(d):.0%} |")
             print(f"\n{name}: {values[0].features.get('noise_threshold_how', '')}\n")
+    return 0
+
+
+def run_variant(args: argparse.Namespace, seeds: list[int], changes: dict) -> tuple[object, list]:
+    """Run (or reuse) every seed of one variant; (its seed-0 spec, its results in seed order)."""
+    spec = _spec(args, 0, changes)
+    folder = args.cache or Path("runs") / f"seed_noise-{args.simulator}-{args.preset}-{spec.spec_hash()}"
+    if args.cache:
+        folder = folder / spec.spec_hash()
+    folder.mkdir(parents=True, exist_ok=True)
+    todo = [s for s in seeds if not (folder / f"seed_{s}.h5").exists()]
+    with cf.ProcessPoolExecutor(args.workers) as pool:
+        futures = [pool.submit(run_seed, args, s, folder, changes) for s in todo]
+        for fut in cf.as_completed(futures):
+            print(f"seed {fut.result()} done ({folder.name})", file=sys.stderr)
+    return spec, [load_seed(folder, s) for s in seeds]
+
+
+def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
+    """The side-by-side table of ``--variant`` runs: seed s.d., CPU per test, s²·CPU."""
+    from calibrax.core.features import result_features, step_mean
+
+    seeds = _seeds(args.seeds)
+    rows = []
+    for label, changes in variants:
+        print(f"{label}: {len(seeds)} seeds, {args.workers} workers", file=sys.stderr)
+        spec, results = run_variant(args, seeds, changes)
+        feats = [result_features(r, spec.procedure.peak_window) for r in results]
+        peak = np.asarray([step_mean(f, "peak_ratio") for f in feats])
+        pre = np.asarray([step_mean(f, "preshear_ratio") for f in feats])
+        rho = np.asarray([f["bulk_density"] for f in feats])
+        cpu = float(np.median([r.provenance.wall_time * r.provenance.threads for r in results]))
+        pre_rot = np.concatenate([r.preshear_rotation for r in results]) if results[0].preshear_rotation.size else np.array([np.nan])
+        rows.append((label, spec, peak, pre, rho, cpu, pre_rot))
+    print(f"\n{args.simulator}, preset {args.preset}, material {args.set or 'Table 1'}, seeds {args.seeds}; "
+          "CPU: median per test on one thread; s²·CPU: seed variance × CPU s (lower is more information per CPU-second)\n")
+    print("| variant | particles | CPU s/test | peak τ/σ (mean of steps) | s.d. | s²·CPU | preshear τ/σ | s.d. | s²·CPU "
+          "| bulk density s.d. [kg/m³] | preshear rotation [rad] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for label, spec, peak, pre, rho, cpu, pre_rot in rows:
+        sp, sq = float(np.std(peak, ddof=1)), float(np.std(pre, ddof=1))
+        print(f"| {label} | {spec.particle_count} | {cpu:.0f} | {np.mean(peak):.3f} | {sp:.3f} | {sp ** 2 * cpu:.3f} | "
+              f"{np.mean(pre):.3f} | {sq:.3f} | {sq ** 2 * cpu:.3f} | {np.std(rho, ddof=1):.1f} | "
+              f"{np.nanmin(pre_rot):.2f}–{np.nanmax(pre_rot):.2f} |")
+    print()
+    for label, _, peak, pre, *_ in rows:
+        print(f"{label}: mean peak τ/σ per seed {', '.join(f'{v:.3f}' for v in peak)}")
+        print(f"{label}: preshear τ/σ per seed {', '.join(f'{v:.3f}' for v in pre)}")
     return 0
 
 
