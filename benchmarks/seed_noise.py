@@ -15,6 +15,10 @@ mean peak τ/σ of every seed:
     .venv/bin/python benchmarks/seed_noise.py --preset tiny --seeds 1-10 \
         --variant 'short windows={"procedure": {"shear_rotation": 0.2}}' --variant 'as preset={}'
 
+Both print where the scatter comes from: a step's peak and preshear τ/σ split into what all four steps
+of one test share (the packing the pour left) and what varies from step to step (the shearing's own
+fluctuation), by an analysis of variance over seeds and steps (:func:`variance_split`).
+
 Material defaults to Table 1 of the reference paper. Each seed's whole result is saved in the
 --cache folder as it finishes, and a seed already there is not run again, so an interrupted run
 resumes and a second metric costs no simulation. --spread-out writes the seed spread of the robust metric's features as a YAML
@@ -64,6 +68,37 @@ def _variants(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list
             parser.error(f"--variant {text!r}: give LABEL=JSON, e.g. 'long={{\"procedure\": {{\"shear_rotation\": 0.4}}}}'")
         out.append((label, changes))
     return out
+
+
+def variance_split(per_step: np.ndarray) -> tuple[float, float]:
+    """Split one feature's seed scatter into what the pour leaves and what the shearing adds.
+
+    ``per_step`` has shape (seeds, steps): the feature of every step of every test (say the peak
+    τ/σ of the four shear steps). Each step's own mean is removed (the steps differ in σ), then a
+    one-way analysis of variance with the seeds as groups gives the s.d. shared by every step of
+    one test (the packing the pour and consolidation left, "per seed") and the s.d. of one step about
+    its test's mean (the shearing's own fluctuation, "per step"). Returns (per-seed s.d., per-step
+    s.d.); a negative between-seed variance estimate is reported as 0.
+    """
+    a = np.asarray(per_step, dtype=float)
+    a = a - a.mean(axis=0)
+    n, k = a.shape
+    if n < 2 or k < 2:
+        return math.nan, math.nan
+    between_ms = k * float(np.sum(a.mean(axis=1) ** 2)) / (n - 1)
+    within_ms = float(np.sum((a - a.mean(axis=1, keepdims=True)) ** 2)) / (n * (k - 1))
+    return math.sqrt(max((between_ms - within_ms) / k, 0.0)), math.sqrt(within_ms)
+
+
+def print_variance_split(label: str, results: list) -> None:
+    """One line per feature: the per-seed and per-step s.d. of :func:`variance_split`."""
+    for name, values in (("peak τ/σ", [r.peak_shear_stress / r.peak_normal_stress for r in results]),
+                         ("preshear τ/σ", [r.preshear_shear_stress / r.preshear_normal_stress for r in results])):
+        seed_sd, step_sd = variance_split(np.asarray(values))
+        share = seed_sd**2 / (seed_sd**2 + step_sd**2) if step_sd > 0 else math.nan
+        print(f"{label}: {name} of one step scatters by {math.hypot(seed_sd, step_sd):.3f}: {seed_sd:.3f} shared by "
+              f"the test's steps (the pour) and {step_sd:.3f} from step to step (the shearing); the pour's share "
+              f"of the variance {share:.0%}")
 
 
 def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | None = None) -> int:
@@ -143,6 +178,8 @@ def main(argv: list[str] | None = None) -> int:
         rel = s.sd / abs(s.mean) if s.mean else math.nan
         print(f"| {name} | {feature_def(name).unit} | {s.mean:.4g} | {s.sd:.3g} | {rel:.1%} | {s.n} |")
     slips = np.asarray([r["base_slip"] for r in done], dtype=float)
+    print()
+    print_variance_split(args.preset, results)
     print(f"\nbase slip (bottom layer's spin / head's rate): median {np.nanmedian(slips):.3f}, max {np.nanmax(slips):.3f}")
     if args.spread_out:
         from calibrax.plugins.builtin.metrics import RobustMetric
@@ -205,13 +242,13 @@ def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
         rho = np.asarray([f["bulk_density"] for f in feats])
         cpu = float(np.median([r.provenance.wall_time * r.provenance.threads for r in results]))
         pre_rot = np.concatenate([r.preshear_rotation for r in results]) if results[0].preshear_rotation.size else np.array([np.nan])
-        rows.append((label, spec, peak, pre, rho, cpu, pre_rot))
+        rows.append((label, spec, peak, pre, rho, cpu, pre_rot, results))
     print(f"\n{args.simulator}, preset {args.preset}, material {args.set or 'Table 1'}, seeds {args.seeds}; "
           "CPU: median per test on one thread; s²·CPU: seed variance × CPU s (lower is more information per CPU-second)\n")
     print("| variant | particles | CPU s/test | peak τ/σ (mean of steps) | s.d. | s²·CPU | preshear τ/σ | s.d. | s²·CPU "
           "| bulk density s.d. [kg/m³] | preshear rotation [rad] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for label, spec, peak, pre, rho, cpu, pre_rot in rows:
+    for label, spec, peak, pre, rho, cpu, pre_rot, _ in rows:
         sp, sq = float(np.std(peak, ddof=1)), float(np.std(pre, ddof=1))
         print(f"| {label} | {spec.particle_count} | {cpu:.0f} | {np.mean(peak):.3f} | {sp:.3f} | {sp ** 2 * cpu:.3f} | "
               f"{np.mean(pre):.3f} | {sq:.3f} | {sq ** 2 * cpu:.3f} | {np.std(rho, ddof=1):.1f} | "
@@ -220,6 +257,9 @@ def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
     for label, _, peak, pre, *_ in rows:
         print(f"{label}: mean peak τ/σ per seed {', '.join(f'{v:.3f}' for v in peak)}")
         print(f"{label}: preshear τ/σ per seed {', '.join(f'{v:.3f}' for v in pre)}")
+    print()
+    for label, *_, results in rows:
+        print_variance_split(label, results)
     return 0
 
 

@@ -281,3 +281,21 @@ def test_a_preshear_that_ended_before_steady_state_is_warned_about():
     # a fixed-length preshear (no cap) states its drift but is not held to the criterion
     fixed = _preshear_result([steady[0], rising, steady[0], steady[0]], None)
     assert fixed.preshear_drift[1] > 0.05 and not any("steady" in w for w in fixed.warnings)
+
+
+def test_a_preshears_steady_value_averages_all_of_it_after_the_first_window():
+    """A preshear that runs until steady is averaged from the end of its first steady-state window
+    on (its reloading transient left out, all its steady rotation in); a fixed one over its last
+    40 %; a capped one too short for that falls back to the last 40 %."""
+    from calibrax.core.sheartest import preshear_steady_part
+
+    capped = ShearCellSpec.preset("tiny").procedure  # steady_window 0.1 rad, capped
+    rot = (np.arange(100) + 0.5) * 0.004  # 0.4 rad in 100 samples
+    assert preshear_steady_part(rot, capped) == slice(25, None)  # from 0.1 rad on
+    fixed = ShearCellSpec.preset("tiny").replace(procedure={"preshear_max_rotation": None}).procedure
+    assert preshear_steady_part(rot, fixed) == slice(60, None)
+    assert preshear_steady_part(rot[:30], capped) == slice(18, None)  # 0.12 rad: the last 40 %
+    # the result's preshear τ: a 0.1 rad transient at 12 kPa, then 9 kPa, read as 9 kPa
+    tau = np.where(np.arange(1, 101) * 0.004 < 0.099, 12000.0, 9000.0)
+    result = _preshear_result([tau] * 4, 0.6)
+    np.testing.assert_allclose(result.preshear_shear_stress, 9000.0)

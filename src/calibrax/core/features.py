@@ -51,8 +51,9 @@ FEATURES: dict[str, FeatureDef] = {f.stem: f for f in (
                "across seeds than τ_peak itself because τ and σ swing together", True),
     FeatureDef("shear_end_ratio", "1", "mean τ over mean σ in the last quarter of the shear step's rotation: "
                "the post-peak (residual, near steady) friction of the step", True),
-    FeatureDef("preshear_ratio", "1", "steady τ/σ of the preshear before the step (last 40 % of its "
-               "rotation): the critical-state friction at the preshear stress", True),
+    FeatureDef("preshear_ratio", "1", "steady τ/σ of the preshear before the step (its rotation after the "
+               "first steady-state window, or the last 40 % of a fixed preshear; sheartest.preshear_steady_part): "
+               "the critical-state friction at the preshear stress", True),
     FeatureDef("initial_slope", "1/rad", "slope of τ/σ_target against rotation over the first third of "
                "the rise to the peak (how stiffly the bed takes up shear)", True),
     FeatureDef("curvature", "1", "c of y = a + b u + c u², fitted to the rise to the peak in normalised "
@@ -178,7 +179,6 @@ def result_features(result: "ShearTestResult", peak_window: float = 0.015) -> di
     """
     out: dict[str, float] = {}
     shear = [s for s in result.steps if s.kind == "shear"]
-    pre = [s for s in result.steps if s.kind == "preshear"]
     for k, step in enumerate(shear):
         sfx = step_suffix(step.target_stress)
         shape = curve_shape(step.rotation, step.shear_stress, step.target_stress, peak_window)
@@ -187,9 +187,8 @@ def result_features(result: "ShearTestResult", peak_window: float = 0.015) -> di
         out[f"peak_ratio_{sfx}"] = float(result.peak_shear_stress[k]) / sigma_peak if sigma_peak > 0 else math.nan
         tail = step.rotation >= step.rotation[-1] - END_PART * (step.rotation[-1] - step.rotation[0])
         out[f"shear_end_ratio_{sfx}"] = float(np.mean(step.shear_stress[tail]) / np.mean(step.normal_stress[tail]))
-        if k < len(pre) and pre[k].shear_stress.size:
-            t = slice(int(0.6 * pre[k].shear_stress.size), None)
-            out[f"preshear_ratio_{sfx}"] = float(np.mean(pre[k].shear_stress[t]) / np.mean(pre[k].normal_stress[t]))
+        if k < len(result.preshear_shear_stress):
+            out[f"preshear_ratio_{sfx}"] = float(result.preshear_shear_stress[k] / result.preshear_normal_stress[k])
         out.update(_shape_features(shape, sfx))
     out.update(_locus(result.target_normal_stress, result.peak_shear_stress))
     out.update(_locus(result.peak_normal_stress, result.peak_shear_stress, "_measured"))
