@@ -118,13 +118,20 @@ def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | 
     return seed
 
 
-def load_seed(folder: Path, seed: int):
+def load_seed(folder: Path, seed: int, spec=None):
+    """A saved seed's result; with ``spec``, read again off its steps with today's definitions (peaks,
+    preshears' steady values), so that a cache made before a definition changed is still comparable
+    (its engine warnings are dropped)."""
     import h5py
 
+    from calibrax.core.sheartest import ShearTestResult
     from calibrax.core.store import _read_result
 
     with h5py.File(folder / f"seed_{seed}.h5", "r") as f:
-        return _read_result(f["result"])
+        result = _read_result(f["result"])
+    if spec is None:
+        return result
+    return ShearTestResult.from_steps(spec, list(result.steps), list(result.bulk_density), result.provenance)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -163,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"seed {fut.result()} done", file=sys.stderr)
     from calibrax.core.features import result_features
 
-    results = [load_seed(folder, s) for s in seeds]
+    results = [load_seed(folder, s, _spec(args, s)) for s in seeds]
     done = [{"features": result_features(r, spec.procedure.peak_window), "wall_s": r.provenance.wall_time,
              "base_slip": r.base_slip.tolist()} for r in results]
     from calibrax.core.features import FEATURES, feature_def, summarise
@@ -224,7 +231,7 @@ def run_variant(args: argparse.Namespace, seeds: list[int], changes: dict) -> tu
         futures = [pool.submit(run_seed, args, s, folder, changes) for s in todo]
         for fut in cf.as_completed(futures):
             print(f"seed {fut.result()} done ({folder.name})", file=sys.stderr)
-    return spec, [load_seed(folder, s) for s in seeds]
+    return spec, [load_seed(folder, s, _spec(args, s, changes)) for s in seeds]
 
 
 def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
