@@ -138,3 +138,14 @@ def test_bad_header_values_name_the_key(tmp_path, header, key):
     (tmp_path / "e.yaml").write_text(header)
     with pytest.raises(ExperimentError, match=key):
         load_experiment(tmp_path / "e.yaml")
+
+
+def test_logs_and_status_show_the_features_the_metric_compared():
+    """c_aif shows C and AIF; robust its averaged τ/σ and the density (not NaN C and AIF)."""
+    from calibrax.core.metric import describe_simulated, simulated_features
+
+    assert describe_simulated({"cohesion_sim": 1234.4, "aif_sim": 31.04, "scale_aif": 2.0}) == "C = 1234 Pa, AIF = 31.0°"
+    robust = {"peak_ratio_sim": 0.8421, "preshear_ratio_sim": 0.7, "bulk_density_sim": 1480.2, "peak_ratio_exp": 0.9}
+    assert describe_simulated(robust) == "peak τ/σ = 0.842, preshear τ/σ = 0.700, ρ = 1480 kg/m³"
+    assert [e[0] for e in simulated_features(robust)] == ["peak_ratio_sim", "preshear_ratio_sim", "bulk_density_sim"]
+    assert describe_simulated({}) == ""

@@ -41,6 +41,7 @@ from calibrax.core.acquisition import Observations
 from calibrax.core.answer import Answer, answer_from_model
 from calibrax.core.config import CampaignConfig
 from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
+from calibrax.core.metric import describe_simulated
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.store import CampaignStore, PointRecord
 from calibrax.errors import CalibraxError, SimulationFailed
@@ -496,8 +497,8 @@ class Campaign:
         msg = f"point {point.id} sim {index} done in {wall:.1f} s ({cfg.simulator}, seed {seed}): τ_peak = [{peaks}] Pa"
         if metric is not None:
             f = metric.features
-            msg += (f", C = {f.get('cohesion_sim', float('nan')):.0f} Pa, AIF = {f.get('aif_sim', float('nan')):.1f}°,"
-                    f" d = {metric.value:.3g} ± {metric.uncertainty:.2g}")
+            shown = describe_simulated(f)
+            msg += (f", {shown}," if shown else ",") + f" d = {metric.value:.3g} ± {metric.uncertainty:.2g}"
             msg += f" ({noise_text(metric.value, metric.threshold, metric.threshold_rate).split(' (')[0]})"
             if self._best is None or metric.value < self._best[0]:
                 self._best = (metric.value, point.id, point.params())

@@ -9,6 +9,26 @@ from calibrax.core.experiment import Experiment
 from calibrax.core.sheartest import ShearTestResult
 
 
+#: the simulated features a metric may state, as logs and status show them: (feature key, label,
+#: unit, format); a metric shows those of its features that are present (c_aif: C and AIF; robust:
+#: the mean peak and preshear τ/σ and the bulk density)
+SIMULATED_FEATURES = (("cohesion_sim", "C", "Pa", ".0f"), ("aif_sim", "AIF", "°", ".1f"),
+                      ("peak_ratio_sim", "peak τ/σ", "", ".3f"), ("preshear_ratio_sim", "preshear τ/σ", "", ".3f"),
+                      ("shear_end_ratio_sim", "end τ/σ", "", ".3f"), ("bulk_density_sim", "ρ", "kg/m³", ".0f"))
+
+
+def simulated_features(features: dict[str, float]) -> list[tuple[str, str, str, str]]:
+    """The entries of :data:`SIMULATED_FEATURES` present in a metric's ``features``."""
+    return [entry for entry in SIMULATED_FEATURES if entry[0] in features]
+
+
+def describe_simulated(features: dict[str, float]) -> str:
+    """"C = 1200 Pa, AIF = 31.0°" or "peak τ/σ = 0.842, preshear τ/σ = 0.701, ρ = 1480 kg/m³": the
+    simulated features a metric's value was built from."""
+    return ", ".join(f"{label} = {format(features[key], fmt)}" + (f" {unit}" if unit and unit != "°" else unit)
+                     for key, label, unit, fmt in simulated_features(features))
+
+
 @dataclass(frozen=True)
 class MetricValue:
     """A distance (dimensionless unless the metric says otherwise), its 1-σ uncertainty, and the

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from calibrax.core.campaign import Campaign, simulation_workdir
 from calibrax.core.executor import ATTEMPTS_LOG
+from calibrax.core.metric import SIMULATED_FEATURES, simulated_features
 from calibrax.core.parameters import UNITS
 from calibrax.core.store import CampaignStore, PointRecord
 
@@ -65,8 +66,13 @@ def status_text(store: CampaignStore) -> str:
     names = points[0].names if points else []
     labels = [f"{n} [{UNITS.get(n, '-')}]" for n in names]
     widths = [max(len(label), 10) for label in labels]
+    # the simulated features the metric states (c_aif: C and AIF; robust: τ/σ and density)
+    shown = next((simulated_features(p.metric.features) for p in points if p.metric), []) or \
+        [e for e in SIMULATED_FEATURES if e[0] in ("cohesion_sim", "aif_sim")]
+    feature_labels = [f"{label} [{unit or '-'}]" for _, label, unit, _ in shown]
     head = (f"{'id':>3} {'batch':>5} {'source':<16} " + " ".join(f"{lab:>{w}}" for lab, w in zip(labels, widths))
-            + f" {'status':<11} {'C [Pa]':>9} {'AIF [°]':>8} {'distance':>15} {'wall [s]':>9}")
+            + f" {'status':<11} " + " ".join(f"{lab:>{max(9, len(lab))}}" for lab in feature_labels)
+            + f" {'distance':>15} {'wall [s]':>9}")
     lines = [head, "-" * len(head)]
     states = {}
     for p in points:
@@ -77,8 +83,10 @@ def status_text(store: CampaignStore) -> str:
         mark = " *" if p.id == summary.best_id else ""
         lines.append(f"{p.id:>3} {p.batch:>5} {p.acquisition[:16]:<16} "
                      + " ".join(f"{v:>{w}.4g}" for v, w in zip(p.natural, widths))
-                     + f" {states[p.id]:<11} {_fmt(f.get('cohesion_sim', math.nan), '.0f'):>9}"
-                     f" {_fmt(f.get('aif_sim', math.nan), '.1f'):>8} {dist:>15}"
+                     + f" {states[p.id]:<11} "
+                     + " ".join(f"{_fmt(f.get(key, math.nan), fmt):>{max(9, len(lab))}}"
+                                for (key, _, _, fmt), lab in zip(shown, feature_labels))
+                     + f" {dist:>15}"
                      f" {_fmt(sum(walls), '.1f') if walls else '':>9}{mark}")
         for s in p.sims:
             if s.status == "failed":
