@@ -40,6 +40,20 @@ def test_parameter_file_accepts_only_finite_numbers():
             check_numbers(bad)
 
 
+def test_a_fixed_preshear_builds_a_parameter_file_the_script_takes():
+    """A fixed preshear (no cap: preshear_max_rotation None) has no steadiness schedule; the
+    parameter file says so with an empty list, which the script reads as "no check", not with
+    None, which the file's number check refuses (every full-tier YADE run on a fixed preshear
+    failed so)."""
+    from calibrax_yade.simulator import build_params
+
+    params = build_params(_tiny(procedure={"preshear_max_rotation": None}))
+    assert params["steady_schedule"] == []
+    check_numbers(params)
+    capped = build_params(_tiny())["steady_schedule"]
+    assert len(capped) == 4 and all(isinstance(v, int) and v > 0 for v in capped)
+
+
 def test_unmodelled_effects_are_refused(tmp_path):
     with pytest.raises(ConfigError, match="cohesion"):
         YadeSimulator().simulate(_tiny(material=Material(cohesion_energy_density=1e3)), tmp_path / "c")

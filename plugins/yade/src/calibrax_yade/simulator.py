@@ -121,11 +121,12 @@ def build_params(spec: ShearCellSpec) -> dict:
     }
 
 
-def _steady_schedule(spec: ShearCellSpec) -> list[int] | None:
+def _steady_schedule(spec: ShearCellSpec) -> list[int]:
     """:func:`~calibrax.core.sheartest.steady_schedule` in the script's samples (its ``rotate``
-    samples every NSUB · round(sample_interval / (Δt NSUB)) steps), or None for fixed preshears."""
+    samples every NSUB · round(sample_interval / (Δt NSUB)) steps), or an empty list for fixed
+    preshears (the parameter file holds numbers only, so not None: ``runner.check_numbers``)."""
     if spec.procedure.preshear_max_rotation is None:
-        return None
+        return []
     per = SERVO_SUBSTEPS * max(1, int(round(spec.numerics.sample_interval / spec.time_step / SERVO_SUBSTEPS)))
     return list(steady_schedule(spec.procedure, spec.procedure.rotation_rate * per * spec.time_step))
 
