@@ -13,6 +13,15 @@ angular velocity of the particles over the head's rate in ten layers from the ba
 (averaged over the step), the height where it crosses one half (the shear zone's middle) and the
 height between 10 % and 90 % (its width), in particle diameters above the base; then each
 preshear's rotation and drift and each step's σ error, from the result.
+
+With ``--every RAD`` it also prints, for every step, one line per RAD of rotation: τ/σ over that
+stretch, the spin profile and the zone's middle and width. That is how the remaining scatter was
+traced to the shearing itself (issue 32): within one step τ/σ swings between about 0.5 and 0.95
+from one 0.03 rad stretch to the next while the zone, the whole bed between the rib tops and the
+blade tips, wanders by 2–3 diameters; in one step τ/σ read 0.13–0.34 and later 0.88 with the same
+velocity profile.
+
+    .venv/bin/python benchmarks/shear_diagnostics.py --preset tiny --seed 3 --every 0.03
 """
 
 from __future__ import annotations
@@ -73,15 +82,37 @@ def zone(profile: np.ndarray, head_height: float, diameter: float) -> tuple[floa
     return crossing(0.5), crossing(0.9) - crossing(0.1)
 
 
+def print_stretches(step, profiles: np.ndarray, angles: np.ndarray, every: float, head_height: float,
+                    diameter: float) -> None:
+    """One line per ``every`` rad of a step's rotation: τ/σ over that stretch (from the step's
+    samples), the mean spin profile over it (``profiles`` over the head's rate, shape (k, LAYERS), at
+    head rotations ``angles`` since the step's start, shape (k,)) and the zone it gives."""
+    print(f"  {step.kind} at {step.target_stress / 1e3:.0f} kPa, per {every} rad: τ/σ | spin, base to head | zone")
+    for start in np.arange(0.0, float(step.rotation[-1]), every):
+        rec = (step.rotation > start) & (step.rotation <= start + every)
+        inside = (angles > start) & (angles <= start + every)
+        if not rec.any() or not inside.any():
+            continue
+        prof = np.nanmean(profiles[inside], axis=0)
+        middle, width = zone(prof, head_height, diameter)
+        ratio = np.mean(step.shear_stress[rec]) / np.mean(step.normal_stress[rec])
+        print(f"    {start:5.2f} rad  {ratio:4.2f} | " + " ".join(f"{v:5.2f}" for v in prof)
+              + f" | middle {middle:4.1f} d, width {width:4.1f} d")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--preset", default="tiny")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="a material field")
+    p.add_argument("--every", type=float, metavar="RAD",
+                   help="also print τ/σ and the spin profile for every RAD of each step's rotation")
     args = p.parse_args(argv)
+    if args.every is not None and not args.every > 0:
+        p.error(f"--every must be a rotation > 0 rad, got {args.every}")
     from calibrax import ShearCellSpec
     from calibrax.core.sheartest import Provenance, ShearTestResult
-    from calibrax_numba_dem.layout import H_Z
+    from calibrax_numba_dem.layout import H_PHI, H_Z
     from calibrax_numba_dem.procedure import RunLog, ShearTestDriver
 
     material = {k: float(v) for k, _, v in (s.partition("=") for s in args.set)}
@@ -94,17 +125,22 @@ def main(argv: list[str] | None = None) -> int:
 
     def rotate(kind: str, stress: float, rotation: float, **kw):
         samples: list[np.ndarray] = []
+        angles: list[float] = []
         plain_advance = driver.sys.advance
+        phi0 = float(driver.sys.head[H_PHI])
 
         def advance(n: int) -> None:
             plain_advance(n)
             samples.append(spin_profile(driver))
+            angles.append(float(driver.sys.head[H_PHI]) - phi0)
         driver.sys.advance = advance
         try:
             step = plain_rotate(kind, stress, rotation, **kw)
         finally:
             del driver.sys.advance
         profiles.append((kind, stress, np.nanmean(np.asarray(samples), axis=0) / rate, float(driver.sys.head[H_Z])))
+        if args.every:
+            print_stretches(step, np.asarray(samples) / rate, np.asarray(angles), args.every, float(driver.sys.head[H_Z]), d)
         if len(profiles) == 1:
             print("solid fraction below the head after the first preshear (top first, half-diameter slices): "
                   + " ".join(f"{v:.2f}" for v in solid_fraction_below_head(driver)))
