@@ -34,3 +34,14 @@ def test_the_step_means_do_not_count_as_scatter():
 def test_too_few_seeds_or_steps_give_nan():
     assert all(np.isnan(seed_noise.variance_split(np.ones((1, 4)))))
     assert all(np.isnan(seed_noise.variance_split(np.ones((5, 1)))))
+
+
+def test_the_sd_interval_covers_the_true_sd_about_as_often_as_it_says():
+    rng = np.random.default_rng(3)
+    draws = rng.normal(0.8, 0.06, (2000, 10))
+    bounds = np.array([seed_noise.sd_interval(d, 0.9) for d in draws])
+    covered = np.mean((bounds[:, 0] <= 0.06) & (0.06 <= bounds[:, 1]))
+    assert covered == pytest.approx(0.9, abs=0.025)
+    lo, hi = seed_noise.sd_interval(draws[0])
+    assert lo < np.std(draws[0], ddof=1) < hi
+    assert all(np.isnan(seed_noise.sd_interval(np.array([0.8]))))
