@@ -210,8 +210,8 @@ def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int,
     from calibrax.core.acquisition import Observations
     from calibrax.core.answer import answer_from_model
     from calibrax.core.composite import CompositeKriging
-    from calibrax.plugins.builtin.acquisitions import sobol_points
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.design import sobol_points
+    from calibrax.core.registry import get_manager
 
     sp = space()
     rng = np.random.default_rng(seed)  # this strategy's simulation noise

@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import h5py
 
-    from calibrax.core.store import CampaignStore, _read_result
+    from calibrax.core.store import CampaignStore, read_result_group
 
     rows = []
     for path in args.store:
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     for folder in args.seed_cache:
         for f in sorted(folder.glob("seed_*.h5")):
             with h5py.File(f, "r") as h:
-                rows.append(_row(folder.name, params, _read_result(h["result"])))
+                rows.append(_row(folder.name, params, read_result_group(h["result"])))
     args.output.parent.mkdir(parents=True, exist_ok=True)
     with args.output.open("w", encoding="utf-8", newline="") as fh:
         fh.write("# DEM design for benchmarks/calibration.py, written by benchmarks/design_data.py\n")

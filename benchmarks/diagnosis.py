@@ -25,7 +25,7 @@ def make_design(workers: int, folder: Path, output: Path) -> int:
     from calibrax.diagnosis.benchmark.design import run_design, shared_cases, unlisted_cases
     from calibrax.diagnosis.benchmark.emulated import export_design
     from calibrax.diagnosis.benchmark.model import BenchmarkModel
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     model = BenchmarkModel.load()
     executor = get_manager().create("executor", "local", workers=workers)

@@ -122,14 +122,14 @@ def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | 
     import h5py
 
     from calibrax import get_manager
-    from calibrax.core.store import _write_result
+    from calibrax.core.store import write_result_group
 
     spec = _spec(args, seed, changes)
     with tempfile.TemporaryDirectory() as work:
         result = get_manager().create("simulator", args.simulator).simulate(spec, Path(work))
     tmp = folder / f".seed_{seed}.h5.tmp"
     with h5py.File(tmp, "w") as f:
-        _write_result(f.create_group("result"), result)
+        write_result_group(f.create_group("result"), result)
     tmp.rename(folder / f"seed_{seed}.h5")
     return seed
 
@@ -141,10 +141,10 @@ def load_seed(folder: Path, seed: int, spec=None):
     import h5py
 
     from calibrax.core.sheartest import ShearTestResult
-    from calibrax.core.store import _read_result
+    from calibrax.core.store import read_result_group
 
     with h5py.File(folder / f"seed_{seed}.h5", "r") as f:
-        result = _read_result(f["result"])
+        result = read_result_group(f["result"])
     if spec is None:
         return result
     return ShearTestResult.from_steps(spec, list(result.steps), list(result.bulk_density), result.provenance)

@@ -33,8 +33,8 @@ _EXPORTS = {
     "calibrax.core.yieldlocus": ["MohrAnalysis", "YieldLocus"],
     "calibrax.errors": ["CalibraxError", "ConfigError", "EngineNotFound", "ExperimentError", "PluginError",
                         "SimulationFailed", "SpecError", "StoreError", "StoreLockedError"],
-    "calibrax.plugins.hookspecs": ["hookimpl"],
-    "calibrax.plugins.manager": ["get_manager"],
+    "calibrax.core.hookspecs": ["hookimpl"],
+    "calibrax.core.registry": ["get_manager"],
     "calibrax.report": ["build_report"],
     "calibrax.report.trials": ["trial_rows", "write_trials_csv"],
 }

@@ -228,7 +228,7 @@ def _print_check(config) -> None:
     print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "
           f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°")
     if config.executor == "dask" and config.executor_options.get("cluster") in ("slurm", "pbs"):
-        from calibrax.plugins.manager import get_manager
+        from calibrax.core.registry import get_manager
 
         executor = get_manager().create("executor", "dask", **config.executor_options)
         print("# the job script dask-jobqueue will submit:")
@@ -296,7 +296,7 @@ def _study_config(args: argparse.Namespace, kind: str):
 
 def _study_executor(args: argparse.Namespace, config):
     """The campaign's executor, ``--workers`` overriding its ``workers``."""
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     options = dict(config.executor_options)
     if args.workers is not None:
@@ -354,7 +354,7 @@ def _cmd_converge(args: argparse.Namespace) -> int:
     from calibrax.core.convergence import converge_cases, verdicts
     from calibrax.core.study import run_study
     from calibrax.errors import ConfigError, PluginError
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
     from calibrax.report.studies import converge_figure, converge_markdown
 
     settings = {}
@@ -408,7 +408,7 @@ def _cmd_diagnose_benchmark(args: argparse.Namespace) -> int:
 
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
-    from calibrax.plugins.manager import HOOKS, get_manager
+    from calibrax.core.registry import HOOKS, get_manager
 
     manager = get_manager()
     print(f"{'kind':<12} {'name':<18} {'version':<10} distribution")

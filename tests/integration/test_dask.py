@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from calibrax import CampaignStore, load_config
-from calibrax.plugins.manager import get_manager
+from calibrax.core.registry import get_manager
 from tests.conftest import ROOT, calibrax_cli, double_env, write_backend_campaign, write_double_campaign
 
 

@@ -88,7 +88,7 @@ normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,preshe
 
 
 def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
-    from calibrax.core.store import _read_experiment, _write_experiment
+    from calibrax.core.store import read_experiment_group, write_experiment_group
     import h5py
 
     (tmp_path / "p.csv").write_text(FULL_POINTS)
@@ -103,9 +103,9 @@ def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
     assert exp.preshear_tau[2] == 8650 and exp.wall_friction_angle_deg == 11.5
     assert (1, 9000.0) in exp.curves
     with h5py.File(tmp_path / "s.h5", "w") as f:
-        _write_experiment(f.create_group("experiment"), exp)
+        write_experiment_group(f.create_group("experiment"), exp)
     with h5py.File(tmp_path / "s.h5", "r") as f:
-        back = _read_experiment(f["experiment"])
+        back = read_experiment_group(f["experiment"])
     np.testing.assert_array_equal(back.bulk_density, exp.bulk_density)
     np.testing.assert_array_equal(back.measured_normal_stress, exp.measured_normal_stress)
     assert back.wall_friction_angle_deg == 11.5

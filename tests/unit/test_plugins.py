@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from calibrax.plugins.manager import PluginManager
+from calibrax.core.registry import PluginManager
 from tests.conftest import calibrax_cli, double_env, write_double_campaign
 
 

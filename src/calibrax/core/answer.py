@@ -130,7 +130,7 @@ class Answer:
 
 def grid(dim: int, n: int = GRID_POINTS, seed: int = 0) -> np.ndarray:
     """``n`` scrambled Sobol points in [0, 1]^dim plus the box's corners, shape (n + 2^dim, dim)."""
-    from calibrax.plugins.builtin.acquisitions import sobol_points
+    from calibrax.core.design import sobol_points
 
     corners = np.array(np.meshgrid(*[[0.0, 1.0]] * dim)).reshape(dim, -1).T
     return np.vstack([sobol_points(dim, n, seed=seed), corners])

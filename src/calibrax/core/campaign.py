@@ -45,8 +45,8 @@ from calibrax.core.metric import describe_simulated
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.store import CampaignStore, PointRecord
 from calibrax.errors import CalibraxError, SimulationFailed
-from calibrax.plugins.builtin.acquisitions import sobol_points
-from calibrax.plugins.manager import get_manager
+from calibrax.core.design import sobol_points
+from calibrax.core.registry import get_manager
 
 log = logging.getLogger("calibrax")
 HEARTBEAT_S = 30.0

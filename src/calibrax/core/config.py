@@ -174,7 +174,7 @@ def _dataclass_values(key: str, raw: Any, cls: type) -> dict[str, Any]:
 
 def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[str, dict[str, Any]]:
     """``name`` or ``{name: ..., option: ...}`` → (name, options), the name checked against the plugins."""
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     if raw is None and default is not None:
         raw = default
@@ -413,7 +413,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
     # Build the plugins once so their own option checks run now, not mid-campaign.
     from calibrax.core.simulator import check_capabilities
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     manager = get_manager()
     for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options),

@@ -28,7 +28,7 @@ from typing import Any
 from calibrax.core.config import CampaignConfig
 from calibrax.core.study import CaseOutcome, StudyCase
 from calibrax.errors import ConfigError, PluginError
-from calibrax.plugins.manager import get_manager
+from calibrax.core.registry import get_manager
 
 log = logging.getLogger("calibrax")
 MICRO_TOLERANCE = 0.02

@@ -65,7 +65,7 @@ class Executor(Protocol):
 
 def run_task(task: SimulationTask) -> ShearTestResult:
     """Run one task in this process: find the simulator plugin, simulate, check the result."""
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     simulator = get_manager().create("simulator", task.simulator)
     Path(task.workdir).mkdir(parents=True, exist_ok=True)

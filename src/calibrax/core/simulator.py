@@ -2,7 +2,7 @@
 
 A backend is a class with a ``name``, a ``capabilities()`` set and ``simulate(spec, workdir)``.
 It is registered by a plugin through the ``calibrax_simulators`` hook (see
-:mod:`calibrax.plugins.hookspecs`). The core never imports a backend.
+:mod:`calibrax.core.hookspecs`). The core never imports a backend.
 """
 
 from __future__ import annotations

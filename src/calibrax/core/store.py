@@ -254,7 +254,7 @@ class CampaignStore:
             f.create_group("points")
             f.create_group("models")
             if experiment is not None:
-                _write_experiment(f.create_group("experiment"), experiment)
+                write_experiment_group(f.create_group("experiment"), experiment)
 
         self._mutate(create)
         return True
@@ -312,7 +312,7 @@ class CampaignStore:
             if result is None:
                 s.attrs.update({"status": "failed", "reason": reason, "log_tail": log_tail[-8000:], "kind": kind})
             else:
-                _write_result(s, result)
+                write_result_group(s, result)
             if metric is not None:
                 m = g.require_group("metric")
                 m.attrs.update({"value": metric.value, "uncertainty": metric.uncertainty,
@@ -352,7 +352,7 @@ class CampaignStore:
     def experiment(self) -> Experiment | None:
         """The experiment the campaign was run against, as stored at its start."""
         with self._read() as f:
-            return _read_experiment(f["experiment"]) if "experiment" in f else None
+            return read_experiment_group(f["experiment"]) if "experiment" in f else None
 
     def write_answer(self, answer: dict[str, Any]) -> None:
         """Store the campaign's current answer (:meth:`calibrax.core.answer.Answer.to_dict`)."""
@@ -377,7 +377,7 @@ class CampaignStore:
             g = f["points"].get(f"p{point_id:06d}/sim{index}")
             if g is None or g.attrs["status"] != "done":
                 raise StoreError(f"point {point_id} simulation {index} has no result in {self.path}")
-            return _read_result(g)
+            return read_result_group(g)
 
     def iter_results(self) -> Iterator[tuple[int, int, ShearTestResult]]:
         """(point id, simulation index, result) of every successful simulation."""
@@ -387,7 +387,7 @@ class CampaignStore:
                     yield p.id, s.index, self.result(p.id, s.index)
 
 
-def _write_experiment(group: h5py.Group, exp: Experiment) -> None:
+def write_experiment_group(group: h5py.Group, exp: Experiment) -> None:
     group.attrs.update({"name": exp.name, "source": exp.source, "preshear_stress": exp.preshear_stress,
                         "preshear_shear_stress": exp.preshear_shear_stress, "files": json.dumps(list(exp.files))})
     group.create_dataset("normal_stress", data=exp.normal_stress)
@@ -405,7 +405,7 @@ def _write_experiment(group: h5py.Group, exp: Experiment) -> None:
         c.create_dataset("shear_stress", data=tau)
 
 
-def _read_experiment(group: h5py.Group) -> Experiment:
+def read_experiment_group(group: h5py.Group) -> Experiment:
     curves = {(int(c.attrs["replicate"]), float(c.attrs["normal_stress"])): (c["rotation"][()], c["shear_stress"][()])
               for c in group["curves"].values()}
     a = group.attrs
@@ -417,7 +417,7 @@ def _read_experiment(group: h5py.Group) -> Experiment:
                       material=json.loads(a.get("material", "{}")), **optional)
 
 
-def _write_result(group: h5py.Group, result: ShearTestResult) -> None:
+def write_result_group(group: h5py.Group, result: ShearTestResult) -> None:
     prov = result.provenance
     group.attrs.update({"status": "done", "provenance": json.dumps({
         "backend": prov.backend, "engine_version": prov.engine_version, "spec_hash": prov.spec_hash,
@@ -434,7 +434,7 @@ def _write_result(group: h5py.Group, result: ShearTestResult) -> None:
             s.create_dataset(ch, data=np.asarray(getattr(step, ch), dtype=float))
 
 
-def _read_result(group: h5py.Group) -> ShearTestResult:
+def read_result_group(group: h5py.Group) -> ShearTestResult:
     prov = json.loads(group.attrs["provenance"])
     steps = []
     for key in sorted(group["steps"]):

@@ -42,7 +42,7 @@ def effects_by_name(names: list[str] | None = None) -> list[Effect]:
     """The registered effects of these names (all of them for None), each built with no arguments;
     an unknown name is a ConfigError naming ``--effects`` and listing the known ones."""
     from calibrax.errors import ConfigError
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     known = get_manager().plugins("effect")
     if names is None:

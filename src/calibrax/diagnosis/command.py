@@ -15,7 +15,7 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
     """The command's body; every input is checked before anything runs or is written."""
     from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
     from calibrax.diagnosis.report import write_diagnosis_report
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     from calibrax.diagnosis.gap import parse_groups
 

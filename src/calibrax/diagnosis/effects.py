@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
-from calibrax.plugins.hookspecs import hookimpl
+from calibrax.core.hookspecs import hookimpl
 
 if TYPE_CHECKING:  # pragma: no cover
     from calibrax.core.experiment import Experiment

@@ -129,7 +129,7 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from calibrax.report.figures import _save
+    from calibrax.report.figures import save_figure
 
     files: list[str] = []
     names = [g.name for g in d.before]
@@ -147,7 +147,7 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
     ax.invert_yaxis()
     ax.legend(fontsize=8, loc="best")
     ax.set_title("Where the gap lies (* held out of the recalibration)", fontsize=10)
-    files += _save(fig, out, "diagnosis_residuals")
+    files += save_figure(fig, out, "diagnosis_residuals")
 
     fig, ax = plt.subplots(figsize=(7, 0.55 * len(d.ranking.models) + 1.6))
     none = next(m for m in d.ranking.models if m.name == NO_EFFECT)
@@ -165,8 +165,8 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
     ax.invert_yaxis()
     ax.set_xlabel(f"log₁₀ Bayes factor against no effect (dashed: {MIN_BAYES_FACTOR:g}, the least a finding needs)")
     ax.set_title(f"Which effect: {headline(d).split(' (')[0]}", fontsize=10)
-    files += _save(fig, out, "diagnosis_scores")
-    files += _curves(d, calibrated, out, plt, _save)
+    files += save_figure(fig, out, "diagnosis_scores")
+    files += _curves(d, calibrated, out, plt, save_figure)
     return files
 
 

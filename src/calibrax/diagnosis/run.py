@@ -176,7 +176,7 @@ def usable_effects(effects: list[Effect], capabilities: frozenset[str], backend:
     return keep, skipped
 
 
-def _case(calibrated: Calibrated, backend: str, point: DesignPoint, effects: dict[str, Effect]) -> StudyCase:
+def design_case(calibrated: Calibrated, backend: str, point: DesignPoint, effects: dict[str, Effect]) -> StudyCase:
     spec = point_spec(calibrated.spec, point.params, 0)
     if point.effect is not None:
         spec = effects[point.effect].apply(spec, point.effect_values)
@@ -184,7 +184,7 @@ def _case(calibrated: Calibrated, backend: str, point: DesignPoint, effects: dic
     return StudyCase(point.label, backend, spec.validate(), point.seeds, coords)
 
 
-def _progress(stage: str):
+def stage_progress(stage: str):
     started = time.monotonic()
 
     def report(done: int, total: int) -> None:
@@ -232,7 +232,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
             error, not skipped).
         capabilities: the backend's (default: asked of the backend).
     """
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     fit_on = gaps.parse_groups(fit_on)
     started = time.monotonic()
@@ -248,7 +248,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     box = Box.around(calibrated.space, calibrated.centre, calibrated.plausible)
     points = design_points(box, effects, budget, seed)
     by_name = {e.name: e for e in effects}
-    cases = [_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
+    cases = [design_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
@@ -256,7 +256,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     try:
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
-                             _progress("design"), shutdown=False)
+                             stage_progress("design"), shutdown=False)
         peak_window = calibrated.spec.procedure.peak_window
         scored = score_design(gaps.measured(calibrated.experiment, peak_window),
                               candidate_spaces(effects, calibrated.experiment), points,
@@ -391,10 +391,10 @@ def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect,
     recal, point = recalibration(box, effect, scored, fit_on, budget, seed)
     if budget.confirm < 1:
         return recal, [], 0, 0.0
-    cases = [_case(calibrated, backend, point, {effect.name: effect})]
+    cases = [design_case(calibrated, backend, point, {effect.name: effect})]
     store = study_store(out, "confirm", cases)
     recal["store"] = store.name
-    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", _progress("confirmation"),
+    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", stage_progress("confirmation"),
                          shutdown=False)
     sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
     engine = sum(r.provenance.wall_time for r in outcomes[0].good)

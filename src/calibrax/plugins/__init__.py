@@ -1,5 +1,5 @@
 """The plugin system: hook specifications, the manager, and the builtin plugins."""
 
-from calibrax.plugins.hookspecs import hookimpl, hookspec
+from calibrax.core.hookspecs import hookimpl, hookspec
 
 __all__ = ["hookimpl", "hookspec"]

@@ -1,42 +1,8 @@
-"""Hook specifications: one hook per kind of plugin.
+"""The hook specifications, kept importable here for plugins written against this path; they live
+in :mod:`calibrax.core.hookspecs`."""
 
-A plugin is a module (or object) with functions marked ``@calibrax.hookimpl`` that return a list
-of *classes* of the kind; each class has a ``name`` attribute that users write in campaign files.
-Register it through the entry-point group ``calibrax``::
+from calibrax.core.hookspecs import (PROJECT, calibrax_acquisitions, calibrax_effects, calibrax_executors,
+                                     calibrax_metrics, calibrax_simulators, hookimpl, hookspec)
 
-    [project.entry-points.calibrax]
-    my_backend = "my_package.plugin"
-"""
-
-from __future__ import annotations
-
-import pluggy
-
-PROJECT = "calibrax"
-hookspec = pluggy.HookspecMarker(PROJECT)
-hookimpl = pluggy.HookimplMarker(PROJECT)
-
-
-@hookspec
-def calibrax_simulators() -> list[type]:
-    """Simulator classes (see :class:`calibrax.core.simulator.Simulator`), built with no arguments."""
-
-
-@hookspec
-def calibrax_metrics() -> list[type]:
-    """Metric classes (see :class:`calibrax.core.metric.Metric`), built with the metric's options."""
-
-
-@hookspec
-def calibrax_acquisitions() -> list[type]:
-    """Acquisition classes (see :class:`calibrax.core.acquisition.Acquisition`)."""
-
-
-@hookspec
-def calibrax_executors() -> list[type]:
-    """Executor classes (see :class:`calibrax.core.executor.Executor`)."""
-
-
-@hookspec
-def calibrax_effects() -> list[type]:
-    """Candidate unmodelled effects for ``calibrax diagnose`` (wall friction, size distribution, …)."""
+__all__ = ["PROJECT", "hookimpl", "hookspec", "calibrax_simulators", "calibrax_metrics", "calibrax_acquisitions",
+           "calibrax_executors", "calibrax_effects"]

@@ -37,7 +37,7 @@ def scaled(name: str, value: float | np.ndarray) -> float | np.ndarray:
     return np.asarray(value) * UNITS.get(name, (name, 1.0, ""))[1]
 
 
-def _save(fig: plt.Figure, folder: Path, stem: str, layout: bool = True) -> list[str]:
+def save_figure(fig: plt.Figure, folder: Path, stem: str, layout: bool = True) -> list[str]:
     if layout:
         fig.tight_layout()
     names = []
@@ -105,7 +105,7 @@ def cartography(data: CampaignData, folder: Path) -> list[str]:
     ax.set_title("C–AIF cartography (numbers: order in which points were simulated)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
-    return _save(fig, folder, "cartography")
+    return save_figure(fig, folder, "cartography")
 
 
 def _frame(ax: plt.Axes, centres: list[tuple[float, float]], pad: float = 0.12) -> None:
@@ -160,7 +160,7 @@ def yield_loci(data: CampaignData, folder: Path, n_best: int = 3) -> list[str]:
     ax.set_title("Yield loci: experiment and best simulations")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, folder, "yield_loci")
+    return save_figure(fig, folder, "yield_loci")
 
 
 def shear_curves(data: CampaignData, folder: Path) -> list[str]:
@@ -191,7 +191,7 @@ def shear_curves(data: CampaignData, folder: Path) -> list[str]:
         fig.text(0.5, 0.01, "the experiment has no τ curves (only its peaks): a curves CSV adds them "
                  "(README, Experiment files)", ha="center", fontsize=8, color="0.3")
     fig.suptitle(f"Shear steps of the best point {best.id} (seed {result.provenance.seed}, {result.provenance.backend})")
-    return _save(fig, folder, "shear_curves")
+    return save_figure(fig, folder, "shear_curves")
 
 
 def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[list[str], str]:
@@ -290,7 +290,7 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
         fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, frameon=False)
     fig.suptitle("Kriging surrogate of the distance to the experiment")
     fig.tight_layout(rect=(0, 0.06, 1, 1))  # room for the legend under the panels
-    return _save(fig, folder, "surrogate", layout=False), statement
+    return save_figure(fig, folder, "surrogate", layout=False), statement
 
 
 def _cell_words(data: CampaignData) -> str:
@@ -355,4 +355,4 @@ def convergence(data: CampaignData, folder: Path) -> list[str]:
         ax2.set_title("red: failed", fontsize=9)
     for ax in (ax1, ax2):
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    return _save(fig, folder, "convergence")
+    return save_figure(fig, folder, "convergence")

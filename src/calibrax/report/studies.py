@@ -18,7 +18,7 @@ from calibrax.core.convergence import DENSITY_TOLERANCE, Verdict, inertial_numbe
 from calibrax.core.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
 from calibrax.core.sheartest import BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION  # noqa: E402
 from calibrax.core.study import CaseOutcome  # noqa: E402
-from calibrax.report.figures import _save  # noqa: E402
+from calibrax.report.figures import save_figure  # noqa: E402
 
 MARKERS = "osD^v<>p*h"
 #: micro-level values that are the analytic theory, not a measurement (the same on every backend)
@@ -241,7 +241,7 @@ def crosscheck_figure(outcomes: list[CaseOutcome], folder: Path) -> list[str]:
         ax2.legend(fontsize=8)
     if len(points) > 1:
         fig.text(0.01, 0.01, "; ".join(points), fontsize=7, ha="left", va="bottom")
-    return _save(fig, folder, "crosscheck")
+    return save_figure(fig, folder, "crosscheck")
 
 
 def converge_markdown(outcomes: list[CaseOutcome], results: list[Verdict]) -> str:
@@ -321,4 +321,4 @@ def converge_figure(outcomes: list[CaseOutcome], results: list[Verdict], folder:
         note.set_in_layout(False)
     fig.tight_layout(h_pad=6.0)
     fig.subplots_adjust(top=1.0 - 0.75 / (4.4 * len(results)))
-    return _save(fig, folder, "converge", layout=False)
+    return save_figure(fig, folder, "converge", layout=False)

@@ -23,6 +23,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.sheartest.facets import radial_plate
 
 __all__ = ["Mesh", "base_mesh", "ribs_mesh", "head_mesh", "write_stl", "read_stl", "check_stl",
            "MeshError"]
@@ -43,16 +44,6 @@ def _fan_disc(radius: float, z: float, nseg: int, phase: float) -> np.ndarray:
     return np.asarray(tris)
 
 
-def _plate(angle: float, s0: float, s1: float, z0: float, z1: float) -> np.ndarray:
-    """Two triangles of the radial plate {s e_angle + z e_z : s in [s0, s1], z in [z0, z1]}."""
-    c, s = math.cos(angle), math.sin(angle)
-    a = np.array([s0 * c, s0 * s, z0])
-    b = np.array([s1 * c, s1 * s, z0])
-    d = np.array([s1 * c, s1 * s, z1])
-    e = np.array([s0 * c, s0 * s, z1])
-    return np.asarray([[a, b, d], [a, d, e]])
-
-
 def segments_for(radius: float, particle_radius: float) -> int:
     """Polygon segments so that the chord sag stays below 1 % of a particle radius (≥ 48)."""
     # sag = r (1 − cos(π/n)) ≈ r π² / (2 n²)
@@ -69,7 +60,7 @@ def ribs_mesh(inner_radius: float, vessel_radius: float, count: int, height: flo
     """``count`` radial ribs of height ``height`` on the base, from ``inner_radius`` (the head's hub
     radius, as numba_dem: ribs meeting at the axis wedge a particle among all their edges at once)
     to the wall."""
-    return np.concatenate([_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
+    return np.concatenate([radial_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
                            for k in range(count)])
 
 
@@ -79,7 +70,7 @@ def head_mesh(head_radius: float, hub_radius: float, blade_count: int, blade_hei
     n = segments_for(head_radius, particle_radius)
     n = blade_count * max(1, math.ceil(n / blade_count))  # spokes evenly between the blades
     disc = _fan_disc(head_radius, 0.0, n, math.pi / n)
-    blades = [_plate(2.0 * math.pi * k / blade_count, hub_radius, head_radius, -blade_height, 0.0)
+    blades = [radial_plate(2.0 * math.pi * k / blade_count, hub_radius, head_radius, -blade_height, 0.0)
               for k in range(blade_count)]
     return np.concatenate([disc] + blades)
 

@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import (GRAVITY, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
-                                     INSERTION_TOLERANCE_RADII, ShearCellSpec, base_layer_bounds,
+from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY,
+                                     INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, POUR_FRICTION, POUR_GRAVITY,
+                                     POUR_SPEED, UNLOAD_MAX_ROTATION, ShearCellSpec, base_layer_bounds,
                                      insertion_time_limit, steady_schedule)
 from calibrax.errors import SpecError
 
@@ -45,24 +46,12 @@ __all__ = ["num", "integer", "ScriptPlan", "write_inputs", "SCRIPT_NAME", "DATA_
 SCRIPT_NAME = "in.calibrax"
 DATA_NAME = "particles.data"
 
-#: friction while pouring (numba_dem: POUR_FRICTION)
-POUR_FRICTION = INSERTION_FRICTION
-#: gravity multiplier while pouring (numba_dem: POUR_GRAVITY)
-POUR_GRAVITY = 3.0
-#: the pour ends when the fastest particle is slower than this, m/s
-POUR_SPEED = 0.02
-#: the head comes down at this speed until it carries the target load, m/s (as numba_dem)
-APPROACH_SPEED = 0.2
-#: the dynamic head's speed limit from then on, m/s: high enough never to act (numba_dem's
-#: SHEAR_SPEED_LIMIT: a limit that clips the head's response to contact spikes rectifies them)
+#: the dynamic head's speed limit while settling and shearing, m/s: high enough never to act (as
+#: numba_dem's: a limit that clips the head's response to contact spikes rectifies them). The pour,
+#: approach, insertion and turn-back constants are every backend's (calibrax.core.sheartest.stages)
 SHEAR_SPEED_LIMIT = 1.0
-#: blade tips this many particle diameters above the bed before the servo takes over
-APPROACH_CLEARANCE = 0.5
 #: speed of the blind move of the head from its parking height to the approach height, m/s
 PLACE_SPEED = 0.5
-#: after each rotation the head turns back until the torque has relaxed, at most this far, rad
-#: (numba_dem's and YADE's ``unload_torque``)
-UNLOAD_MAX_ROTATION = 0.05
 
 T_BASE, T_WALL, T_HEAD, T_POUR, T_PART = 1, 2, 3, 4, 5
 NTYPES = 5

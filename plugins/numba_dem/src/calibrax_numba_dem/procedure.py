@@ -17,8 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.packing import initial_packing
 from calibrax.core.servo import servo_gains
-from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, GRAVITY, INSERTION_FRICTION,
-                                     INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, insertion_time_limit,
+from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, CONSOLIDATION_LIMIT_FACTOR, GRAVITY,
+                                     INSERTION_FRICTION, INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII,
+                                     MAX_SPEED, POUR_FRICTION, POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION,
+                                     insertion_time_limit,
                                      ShearCellSpec, StepRecord, base_layer_bounds, layer_spin,
                                      preshear_drift, shear_stress_from_torque, steady_schedule)
 from calibrax.errors import SimulationFailed
@@ -29,25 +31,10 @@ from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_RE
                      H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR, P_MUR_BASE,
                      P_MUR_HEAD, P_MUR_WALL, P_USE_HEAD)
 
-#: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's), and
-#: while the blades go in
-POUR_FRICTION = INSERTION_FRICTION
-#: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after).
-#: The pour is the same on every backend (LIGGGHTS' and YADE's POUR_GRAVITY, POUR_SPEED): the bulk
-#: density after preshear still remembers it
-POUR_GRAVITY = 3.0
-#: the pour ends when the fastest particle is slower than this, m/s
-POUR_SPEED = 0.02
-#: servo speed limit during the approach and consolidation, m/s
-APPROACH_SPEED = 0.2
 #: servo speed limit while settling and shearing, m/s: high enough never to act, because a limit
-#: that clips the head's response to contact spikes rectifies them and biases σ upwards
+#: that clips the head's response to contact spikes rectifies them and biases σ upwards (the pour,
+#: approach, insertion and escape constants are every backend's: calibrax.core.sheartest.stages)
 SHEAR_SPEED_LIMIT = 1.0
-#: the fast approach stops with the blade tips this many particle diameters above the bed (and in
-#: any case a tenth of a radius above the highest particle: a blade placed into a sphere launches it)
-APPROACH_CLEARANCE = 0.5
-#: escape / blow-up thresholds
-MAX_SPEED = 20.0
 
 
 @dataclass
@@ -266,7 +253,7 @@ class ShearTestDriver:
         below = s.x[:, 2] < zh
         return float(np.sum(s.mass[below]) / (math.pi * self.rc**2 * zh))
 
-    def unload_torque(self, max_rotation: float = 0.05) -> float:
+    def unload_torque(self, max_rotation: float = UNLOAD_MAX_ROTATION) -> float:
         """Relax the bed's residual shear after a rotation, as a shear tester does before it changes
         the normal stress: turn the head back at the rotation rate (under the current σ) until the
         torque, averaged over 0.2 ms, has fallen to zero; at most ``max_rotation`` rad.

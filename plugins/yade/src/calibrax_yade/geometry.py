@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from calibrax.core.sheartest.facets import radial_plate
 
 __all__ = ["segments_for", "base_mesh", "ribs_mesh", "vessel_mesh", "head_mesh"]
 
@@ -39,16 +40,6 @@ def _fan_disc(radius: float, z: float, nseg: int, phase: float) -> np.ndarray:
     rim = np.stack([radius * np.cos(ang), radius * np.sin(ang), np.full(ang.size, z)], axis=1)
     centre = np.array([0.0, 0.0, z])
     return np.asarray([np.stack([centre, rim[k], rim[k + 1]]) for k in range(nseg)])
-
-
-def _plate(angle: float, s0: float, s1: float, z0: float, z1: float) -> np.ndarray:
-    """Two triangles of the radial plate {s e_angle + z e_z : s ∈ [s0, s1], z ∈ [z0, z1]}."""
-    c, s = math.cos(angle), math.sin(angle)
-    a = np.array([s0 * c, s0 * s, z0])
-    b = np.array([s1 * c, s1 * s, z0])
-    d = np.array([s1 * c, s1 * s, z1])
-    e = np.array([s0 * c, s0 * s, z1])
-    return np.asarray([[a, b, d], [a, d, e]])
 
 
 def base_mesh(vessel_radius: float, particle_radius: float) -> np.ndarray:
@@ -69,7 +60,7 @@ def ribs_mesh(inner_radius: float, vessel_radius: float, count: int, height: flo
     to the wall (empty array when count = 0)."""
     if count <= 0:
         return np.zeros((0, 3, 3))
-    return np.concatenate([_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
+    return np.concatenate([radial_plate(2.0 * math.pi * k / count, inner_radius, vessel_radius, 0.0, height)
                            for k in range(count)])
 
 
@@ -96,6 +87,6 @@ def head_mesh(head_radius: float, hub_radius: float, blade_count: int, blade_hei
     n = segments_for(head_radius, particle_radius)
     n = blade_count * max(1, math.ceil(n / blade_count))  # fan spokes evenly between the blades
     disc = _fan_disc(head_radius, 0.0, n, math.pi / n)
-    blades = np.concatenate([_plate(2.0 * math.pi * k / blade_count, hub_radius, head_radius, -blade_height, 0.0)
+    blades = np.concatenate([radial_plate(2.0 * math.pi * k / blade_count, hub_radius, head_radius, -blade_height, 0.0)
                              for k in range(blade_count)])
     return disc, blades

@@ -1,6 +1,6 @@
 """calibrax plugin entry point: registers :class:`YadeSimulator`."""
 
-from calibrax.plugins.hookspecs import hookimpl
+from calibrax.core.hookspecs import hookimpl
 
 from .simulator import YadeSimulator
 

@@ -38,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.packing import initial_packing
-from calibrax.core.sheartest import (GRAVITY, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
-                                     INSERTION_TOLERANCE_RADII, Provenance,
+from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY,
+                                     INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, MAX_SPEED, POUR_FRICTION,
+                                     POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, Provenance,
                                      ShearCellSpec, ShearTestResult, StepRecord, base_layer_bounds,
                                      insertion_time_limit, shear_stress_from_torque, steady_schedule)
 from calibrax.errors import SimulationFailed, SpecError
@@ -51,14 +52,10 @@ from .runner import find_yade, run_yade, script_path, write_params, yade_version
 
 __all__ = ["YadeSimulator", "build_params", "SERVO_SUBSTEPS"]
 
-#: friction while pouring and gravity multiplier (DESIGN §3: pour with low friction, then switch)
-POUR_FRICTION = INSERTION_FRICTION
-POUR_GRAVITY = 3.0
-#: servo speed limits (m/s), approach clearance (particle diameters), blow-up speed (m/s): numba_dem's
-APPROACH_SPEED = 0.2
+#: the head's speed limit while settling and shearing, m/s: YADE's own (its head is a rigid body
+#: under the target load; numba_dem's and LIGGGHTS' servos use 1 m/s). The pour, approach,
+#: insertion, turn-back and escape constants are every backend's (calibrax.core.sheartest.stages)
 SHEAR_SPEED_LIMIT = 0.05
-APPROACH_CLEARANCE = 0.5
-MAX_SPEED = 20.0
 #: the head's servo is updated, and force/torque sampled, every this many time steps
 SERVO_SUBSTEPS = 1
 #: steps between two sweeps that take the rolling resistance off the frictionless lateral wall's new
@@ -113,7 +110,8 @@ def build_params(spec: ShearCellSpec) -> dict:
         "sample_interval": spec.numerics.sample_interval, "servo_substeps": SERVO_SUBSTEPS,
         "servo_mass_fraction": SERVO_MASS_FRACTION, "servo_tau_periods": SERVO_TAU_PERIODS,
         "approach_speed": APPROACH_SPEED, "shear_speed_limit": SHEAR_SPEED_LIMIT,
-        "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED,
+        "approach_clearance": APPROACH_CLEARANCE, "max_speed": MAX_SPEED, "pour_speed": POUR_SPEED,
+        "unload_max_rotation": UNLOAD_MAX_ROTATION,
         # the wall's rolling friction is either every contact's (YADE's one eta) or none (cleared on
         # the wall's contacts); _refuse has turned away any other value
         "wall_rolling": 1.0 if spec.effective_wall_rolling_friction() > 0 else 0.0,

@@ -135,7 +135,7 @@ def _dem_level(bench, per_class, cases, given, other, seed, workers, out):
     from calibrax.diagnosis.benchmark import dem
     from calibrax.diagnosis.benchmark.cases import read_labels
     from calibrax.diagnosis.benchmark.plan import plan_dem
-    from calibrax.plugins.manager import get_manager
+    from calibrax.core.registry import get_manager
 
     def make_executor():
         return get_manager().create("executor", "local", workers=workers or 1)

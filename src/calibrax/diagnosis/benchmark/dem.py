@@ -28,14 +28,14 @@ from calibrax.diagnosis.benchmark.design import run_design, seed_case_folder
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.benchmark.plan import PlannedCase, truth_spec
 from calibrax.diagnosis.benchmark.scores import Answer, answer_from_diagnosis
-from calibrax.diagnosis.run import _progress, study_store
+from calibrax.diagnosis.run import stage_progress, study_store
 
 log = logging.getLogger("calibrax")
 
 
 def _study(cases: list[StudyCase], folder: Path, kind: str, executor) -> list:
     store = study_store(folder, kind, cases)
-    return run_study(cases, store, executor, folder / "runs" / store.stem, kind, _progress(kind), shutdown=False)
+    return run_study(cases, store, executor, folder / "runs" / store.stem, kind, stage_progress(kind), shutdown=False)
 
 
 def run_truths(model: BenchmarkModel, plans: list[PlannedCase], folder: Path, executor) -> dict[str, list]:

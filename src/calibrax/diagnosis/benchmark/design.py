@@ -16,7 +16,7 @@ from calibrax.core.study import StudyCase, run_study
 from calibrax.diagnosis.benchmark.cases import RollingFriction
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import Budget, DesignPoint, design_points
-from calibrax.diagnosis.run import _case, _progress, study_store
+from calibrax.diagnosis.run import design_case, stage_progress, study_store
 
 #: simulations of the unlisted block (rolling friction over its range, calibrated parameters over the box)
 UNLISTED_POINTS = 10
@@ -29,7 +29,7 @@ def shared_cases(model: BenchmarkModel) -> tuple[list[DesignPoint], list[StudyCa
     calibrated = model.calibrated(None)
     points = model.design()
     by_name = {e.name: e for e in model.effects()}
-    return points, [_case(calibrated, model.simulator, p, by_name) for p in points]
+    return points, [design_case(calibrated, model.simulator, p, by_name) for p in points]
 
 
 def unlisted_cases(model: BenchmarkModel) -> tuple[list[DesignPoint], list[StudyCase]]:
@@ -38,7 +38,7 @@ def unlisted_cases(model: BenchmarkModel) -> tuple[list[DesignPoint], list[Study
     points = [p for p in design_points(model.box(), [effect], Budget(0, 0, UNLISTED_POINTS, 0),
                                        model.seed + UNLISTED_SEED_OFFSET) if p.seeds]
     calibrated = model.calibrated(None)
-    return points, [_case(calibrated, model.simulator, p, {effect.name: effect}) for p in points]
+    return points, [design_case(calibrated, model.simulator, p, {effect.name: effect}) for p in points]
 
 
 def run_design(model: BenchmarkModel, folder: Path, executor, unlisted: bool = False) -> tuple[Path, list]:
@@ -48,7 +48,7 @@ def run_design(model: BenchmarkModel, folder: Path, executor, unlisted: bool = F
     kind = "unlisted" if unlisted else "design"
     folder.mkdir(parents=True, exist_ok=True)
     store = study_store(folder, kind, cases)
-    outcomes = run_study(cases, store, executor, folder / "runs" / store.stem, "diagnose", _progress(kind),
+    outcomes = run_study(cases, store, executor, folder / "runs" / store.stem, "diagnose", stage_progress(kind),
                          shutdown=False)
     return store, outcomes
 

@@ -18,9 +18,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrax.core.acquisition import Observations
+from calibrax.core.design import sobol_points
+from calibrax.core.hookspecs import hookimpl
 from calibrax.core.parameters import ParameterSpace
 from calibrax.errors import ConfigError
-from calibrax.plugins.hookspecs import hookimpl
 
 if TYPE_CHECKING:  # torch is imported only when a proposal is made: simulation processes never need it
     import torch
@@ -162,17 +163,6 @@ class RandomAcquisition:
     def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
         return np.random.default_rng(seed).random((q, space.dim))
-
-
-def sobol_points(dim: int, n: int, seed: int = 0, skip: int = 0) -> np.ndarray:
-    """``n`` scrambled Sobol points in [0, 1]^dim, shape (n, dim), after skipping ``skip``."""
-    import torch
-    from torch.quasirandom import SobolEngine
-
-    engine = SobolEngine(dimension=dim, scramble=True, seed=seed)
-    if skip:
-        engine.fast_forward(skip)
-    return engine.draw(n, dtype=torch.float64).numpy()
 
 
 @hookimpl

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from calibrax.core.dask_executor import DaskExecutor
 from calibrax.core.executor import LocalExecutor
-from calibrax.plugins.hookspecs import hookimpl
+from calibrax.core.hookspecs import hookimpl
 
 
 @hookimpl

@@ -21,7 +21,7 @@ from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.threshold import DEFAULT_RATE, noise_threshold, welch_dof
 from calibrax.core.yieldlocus import YieldLocus
 from calibrax.errors import ConfigError
-from calibrax.plugins.hookspecs import hookimpl
+from calibrax.core.hookspecs import hookimpl
 
 
 def _threshold_features(value: float, rate: float, how: str) -> dict[str, Any]:

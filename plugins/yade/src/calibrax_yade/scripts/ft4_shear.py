@@ -308,7 +308,7 @@ def pour():
     t_spent = 1.5 * t_fall
     t_max = 10.0 * t_fall + 0.05
     while t_spent < t_max:
-        if max_speed() < 0.02:
+        if max_speed() < P["pour_speed"]:
             break
         run_time(2.0e-3, "pour")
         t_spent += 2.0e-3
@@ -414,7 +414,9 @@ def preshear_drift(tau, sig, m):
     return abs(m_last - m_before) / abs(m_last) if m_last != 0 else float("inf")
 
 
-def unload_torque(max_rotation=0.05):
+def unload_torque(max_rotation=None):
+    if max_rotation is None:
+        max_rotation = P["unload_max_rotation"]
     chunk = max(NSUB, NSUB * int(round(2.0e-4 / DT / NSUB)))
     phi0 = S["phi"]
     S["omega"] = -RATE

@@ -1,0 +1,331 @@
+"""The backend-neutral spec of one FT4 shear test: material, size distribution, geometry,
+procedure and numerics (SI units: Pa, m, s, rad, kg), and :class:`ShearCellSpec` that holds them.
+
+Defaults are the reference paper's Table 1 material (E = 25 GPa, μs = 0.5, ν = 0.25, e = 0.3,
+μr = 0.5, ρ = 3000 kg/m³, R = 0.9 mm) and its procedure (preshear 15 kPa; shear at 9, 8, 7, 6 kPa)."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from calibrax.core.sheartest.physics import critical_time_step
+from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
+from calibrax.errors import SpecError
+
+
+@dataclass(frozen=True)
+class Material:
+    """Particle material, Table 1 of the reference paper by default.
+
+    Attributes:
+        youngs_modulus: E, Pa.
+        poisson_ratio: ν, in [0, 0.5).
+        restitution: e, in (0, 1]; the damping of LIGGGHTS' ``hertz`` model is derived from it.
+        sliding_friction: μs, ≥ 0.
+        rolling_friction: μr, ≥ 0 (EPSD2 type, no viscous part).
+        density: ρ, kg/m³.
+        cohesion_energy_density: k of the simplified JKR model (LIGGGHTS ``cohesion sjkr``,
+            F = k·A with A the contact area), J/m³; 0 = no cohesion (the default).
+    """
+
+    youngs_modulus: float = 25.0e9
+    poisson_ratio: float = 0.25
+    restitution: float = 0.3
+    sliding_friction: float = 0.5
+    rolling_friction: float = 0.5
+    density: float = 3000.0
+    cohesion_energy_density: float = 0.0
+
+    @property
+    def reduced_modulus(self) -> float:
+        """Ẽ = E / (1 − ν²), Pa."""
+        return self.youngs_modulus / (1.0 - self.poisson_ratio**2)
+
+
+@dataclass(frozen=True)
+class SizeDistribution:
+    """Particle radii. ``mono`` (default), ``lognormal`` or ``table``.
+
+    Attributes:
+        kind: "mono" | "lognormal" | "table".
+        sigma_log: standard deviation of ln(r) for ``lognormal`` (radius ``Particles.radius`` is the
+            median), truncated to [r·min_ratio, r·max_ratio].
+        radii: table radii, m (``table`` only).
+        fractions: table number fractions (``table`` only), summing to 1.
+    """
+
+    kind: Literal["mono", "lognormal", "table"] = "mono"
+    sigma_log: float = 0.0
+    min_ratio: float = 0.5
+    max_ratio: float = 2.0
+    radii: tuple[float, ...] = ()
+    fractions: tuple[float, ...] = ()
+
+    def sample(self, median_radius: float, n: int, rng: np.random.Generator) -> np.ndarray:
+        """Draw ``n`` radii (m), shape (n,)."""
+        if self.kind == "mono":
+            return np.full(n, median_radius)
+        if self.kind == "lognormal":
+            r = median_radius * np.exp(rng.normal(0.0, self.sigma_log, n))
+            return np.clip(r, median_radius * self.min_ratio, median_radius * self.max_ratio)
+        idx = rng.choice(len(self.radii), size=n, p=np.asarray(self.fractions) / np.sum(self.fractions))
+        return np.asarray(self.radii, dtype=float)[idx]
+
+    def mean_volume_factor(self, median_radius: float) -> float:
+        """E[r³] / R³, used to turn a fill volume into a particle count."""
+        if self.kind == "mono":
+            return 1.0
+        if self.kind == "lognormal":
+            return float(math.exp(4.5 * self.sigma_log**2))
+        r = np.asarray(self.radii) / median_radius
+        f = np.asarray(self.fractions) / np.sum(self.fractions)
+        return float(np.sum(f * r**3))
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The FT4 cylindrical shear cell, scaled to the particles (all m).
+
+    The head is a disc of radius ``head_radius`` with ``blade_count`` radial blades of height
+    ``blade_height`` hanging below it, from ``hub_radius`` out to ``head_radius``. The lateral wall
+    is frictionless by default (the paper's hypothesis). The base holds the bed with ``base_ribs``
+    radial ribs (vertical plates from the axis to the wall, ``rib_height`` high, one particle
+    diameter by default), as ring shear cells hold theirs with cleats: a flat base of the particles'
+    own friction can hold at most τ ≈ 0.55 σ, below the powder's strength, so the bed would slide
+    on it as a block and τ would measure the base (``base_ribs: 0`` gives that flat base). The base
+    and ribs take the particles' μs and μr (``None``). The lateral wall's rolling friction
+    ``wall_rolling_friction`` defaults (``None``) to the particles' μr when the wall has sliding
+    friction and to 0 when it has none (:meth:`ShearCellSpec.effective_wall_rolling_friction`).
+    """
+
+    vessel_diameter: float = 61.2e-3
+    fill_height: float = 53.9e-3
+    head_radius: float = 29.4e-3
+    blade_count: int = 18
+    blade_height: float = 3.6e-3
+    hub_radius: float = 3.0e-3
+    wall_friction: float = 0.0
+    wall_rolling_friction: float | None = None
+    base_friction: float | None = None
+    base_rolling_friction: float | None = None
+    head_friction: float | None = None
+    base_ribs: int = 18
+    rib_height: float = 1.8e-3
+
+
+@dataclass(frozen=True)
+class Procedure:
+    """The test sequence: for each shear stress, preshear then shear (Pa, rad, rad/s, s).
+
+    Attributes:
+        preshear_stress: σ of every preshear, Pa (15 kPa in the paper).
+        shear_stresses: σ of each shear step, Pa, in the order run (9, 8, 7, 6 kPa in the paper).
+        rotation_rate: head rotation rate during preshear and shear, rad/s.
+        preshear_rotation: the shortest rotation of each preshear, rad.
+        preshear_max_rotation: the longest rotation of each preshear, rad, or None (each preshear
+            turns exactly ``preshear_rotation``). When set, a preshear turns on past its minimum
+            until τ/σ is steady, as the FT4's does: the means of τ/σ over the last two windows
+            of ``steady_window`` rad differ by at most ``steady_tolerance`` of the last
+            (:func:`preshear_drift`); at the cap the result warns that it was not steady.
+        steady_window: width of each of the two windows the steady-state criterion compares, rad.
+        steady_tolerance: the largest relative difference of their mean τ/σ, > 0.
+        shear_rotation: head rotation of each shear step (past the peak), rad.
+        settle_time: time the head holds the new σ, not rotating, before each rotation starts, s.
+        peak_window: width of the running mean the peak is taken from, rad of rotation.
+    """
+
+    preshear_stress: float = 15.0e3
+    shear_stresses: tuple[float, ...] = (9.0e3, 8.0e3, 7.0e3, 6.0e3)
+    rotation_rate: float = 1.0
+    preshear_rotation: float = 0.30
+    preshear_max_rotation: float | None = None
+    steady_window: float = 0.1
+    steady_tolerance: float = 0.05
+    shear_rotation: float = 0.20
+    settle_time: float = 0.02
+    peak_window: float = 0.01
+
+    @property
+    def consolidation_min_time(self) -> float:
+        """Shortest consolidation, s: one preshear rotation of turning (at least 10 ms), so that the
+        blades work their way in and the bed compacts before the first preshear is recorded."""
+        return max(0.01, self.preshear_rotation / self.rotation_rate)
+
+    @property
+    def consolidation_time_limit(self) -> float:
+        """Longest consolidation, s: :data:`CONSOLIDATION_LIMIT_FACTOR` × the shortest. Past it the
+        backends stop waiting for the head to settle and warn. Derived from the procedure, so that a
+        slow rotation (the paper's 0.5 rad/s: 0.6 s minimum, 3.6 s limit) is not cut off before its
+        first rotation ends, and at least :data:`CONSOLIDATION_LIMIT_ROTATION` rad of turning;
+        ``tiny`` gets 0.30 s, ``quick`` 0.36 s."""
+        return max(CONSOLIDATION_LIMIT_FACTOR * self.consolidation_min_time,
+                   CONSOLIDATION_LIMIT_ROTATION / self.rotation_rate)
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Time step, output and randomness.
+
+    Attributes:
+        dt_fraction: Δt as a fraction of the paper's critical step (eq. 1), in (0, 1].
+        stress_for_dt: σ0 in eq. (1), Pa; defaults to the preshear stress.
+        sample_interval: time between recorded samples of the time series, s.
+        seed: random seed of the packing; same seed and thread count → identical result.
+        threads: threads (or MPI ranks) the backend may use.
+    """
+
+    dt_fraction: float = 0.05
+    stress_for_dt: float | None = None
+    sample_interval: float = 2.0e-4
+    seed: int = 0
+    threads: int = 1
+
+
+@dataclass(frozen=True)
+class ShearCellSpec:
+    """One FT4 shear test, complete and backend-neutral. Use :meth:`preset` to build one."""
+
+    geometry: Geometry = field(default_factory=Geometry)
+    material: Material = field(default_factory=Material)
+    radius: float = 0.9e-3
+    size_distribution: SizeDistribution = field(default_factory=SizeDistribution)
+    fill_solid_fraction: float = 0.60
+    procedure: Procedure = field(default_factory=Procedure)
+    numerics: Numerics = field(default_factory=Numerics)
+    name: str = "custom"
+
+    # -- derived quantities ------------------------------------------------------------------
+    @property
+    def particles_per_diameter(self) -> float:
+        """Cell diameter in particle diameters, D / (2R)."""
+        return self.geometry.vessel_diameter / (2.0 * self.radius)
+
+    @property
+    def particle_count(self) -> int:
+        """Particles needed to fill the cell to ``fill_height`` at ``fill_solid_fraction``."""
+        g = self.geometry
+        v_cell = math.pi * (g.vessel_diameter / 2) ** 2 * g.fill_height
+        v_p = 4.0 / 3.0 * math.pi * self.radius**3 * self.size_distribution.mean_volume_factor(self.radius)
+        return int(round(self.fill_solid_fraction * v_cell / v_p))
+
+    @property
+    def critical_time_step(self) -> float:
+        """Δt_crit of the paper's eq. (1) at σ0 (``numerics.stress_for_dt`` or the preshear σ), s."""
+        s0 = self.numerics.stress_for_dt or self.procedure.preshear_stress
+        r_min = self.radius * (self.size_distribution.min_ratio if self.size_distribution.kind == "lognormal" else 1.0)
+        if self.size_distribution.kind == "table":
+            r_min = min(self.size_distribution.radii)
+        return critical_time_step(r_min, self.material.density, self.material.reduced_modulus, s0)
+
+    @property
+    def time_step(self) -> float:
+        """Δt = dt_fraction · Δt_crit, s."""
+        return self.numerics.dt_fraction * self.critical_time_step
+
+    def effective_base_friction(self) -> tuple[float, float]:
+        """(μs, μr) of the base: the material's unless set."""
+        g, m = self.geometry, self.material
+        return (m.sliding_friction if g.base_friction is None else g.base_friction,
+                m.rolling_friction if g.base_rolling_friction is None else g.base_rolling_friction)
+
+    def effective_wall_rolling_friction(self) -> float:
+        """μr of the lateral wall: ``geometry.wall_rolling_friction`` if set, else the particles' μr
+        when the wall has sliding friction and 0 when it has none (every backend's former rule)."""
+        g = self.geometry
+        if g.wall_rolling_friction is not None:
+            return g.wall_rolling_friction
+        return self.material.rolling_friction if g.wall_friction > 0 else 0.0
+
+    def effective_head_friction(self) -> float:
+        """μs of the head's blades and face: the material's unless set."""
+        g = self.geometry
+        return self.material.sliding_friction if g.head_friction is None else g.head_friction
+
+    # -- construction ------------------------------------------------------------------------
+    @classmethod
+    def preset(cls, fidelity: str = "quick", procedure: str = "paper", **overrides: Any) -> "ShearCellSpec":
+        """Build a spec from a fidelity preset and a procedure preset.
+
+        Args:
+            fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
+            procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891").
+            overrides: ``material=Material(...)``, ``radius=...``, ``numerics={...}`` etc.; dicts
+                update the preset's sub-dataclass field by field.
+        """
+        from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
+
+        if fidelity not in FIDELITY_PRESETS:
+            raise SpecError("cell.preset", f"unknown fidelity preset {fidelity!r}; allowed: {sorted(FIDELITY_PRESETS)}")
+        if procedure not in PROCEDURES:
+            raise SpecError("cell.procedure.preset", f"unknown procedure {procedure!r}; allowed: {sorted(PROCEDURES)}")
+        p = FIDELITY_PRESETS[fidelity]
+        radius = float(overrides.pop("radius", 0.9e-3))
+        d = 2.0 * radius
+        diameter = p["particles_per_diameter"] * d
+        geometry = Geometry(
+            vessel_diameter=diameter,
+            fill_height=p["height_ratio"] * diameter,
+            head_radius=0.48 * diameter,
+            blade_count=p["blade_count"],
+            blade_height=p["blade_height_d"] * d,
+            hub_radius=0.1 * diameter,
+            base_ribs=p["base_ribs"],
+            rib_height=d,
+        )
+        proc = dataclasses.replace(PROCEDURES[procedure], **p["procedure"])
+        numerics = Numerics(**p["numerics"])
+        spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
+        return spec.replace(**overrides)
+
+    def replace(self, **changes: Any) -> "ShearCellSpec":
+        """A copy with fields changed; a dict value updates a sub-dataclass field by field."""
+        resolved: dict[str, Any] = {}
+        for key, value in changes.items():
+            if key not in {f.name for f in dataclasses.fields(self)}:
+                raise SpecError(f"cell.{key}", f"unknown field; allowed: {[f.name for f in dataclasses.fields(self)]}")
+            current = getattr(self, key)
+            if isinstance(value, dict) and dataclasses.is_dataclass(current):
+                allowed = {f.name for f in dataclasses.fields(current)}
+                unknown = set(value) - allowed
+                if unknown:
+                    raise SpecError(f"cell.{key}.{sorted(unknown)[0]}", f"unknown field; allowed: {sorted(allowed)}")
+                value = dataclasses.replace(current, **value)
+            resolved[key] = value
+        return dataclasses.replace(self, **resolved)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (tuples become lists)."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "ShearCellSpec":
+        """Inverse of :meth:`to_dict`."""
+        d = dict(data)
+        sub = {"geometry": Geometry, "material": Material, "size_distribution": SizeDistribution,
+               "procedure": Procedure, "numerics": Numerics}
+        for key, typ in sub.items():
+            if key in d:
+                fields_ = dict(d[key])
+                for f in dataclasses.fields(typ):
+                    if f.name in fields_ and isinstance(fields_[f.name], list):
+                        fields_[f.name] = tuple(fields_[f.name])
+                d[key] = typ(**fields_)
+        return cls(**d)
+
+    def spec_hash(self) -> str:
+        """A short stable hash of the whole spec (seed included)."""
+        blob = json.dumps(self.to_dict(), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+    def validate(self, min_particles: int = 50) -> "ShearCellSpec":
+        """Raise :class:`SpecError` naming the field and what is allowed; return self if valid."""
+        from calibrax.core.sheartest.validation import validate_spec
+
+        return validate_spec(self, min_particles)

@@ -1,0 +1,71 @@
+"""Rules of the test's stages that every backend applies the same way, with the values every
+backend really uses: the pour, the head's approach, the blades' insertion, how long consolidation may
+last, the torque's turn-back before σ changes, and when a particle counts as escaped.
+
+The servo's speed limit while shearing is not here: it belongs to each backend's servo (numba_dem
+and LIGGGHTS 1 m/s, high enough never to act; YADE 0.05 m/s for its own head, a rigid body under
+the target load)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from calibrax.core.sheartest.spec import ShearCellSpec
+
+#: friction while pouring (DESIGN §3: pour with low friction, then switch to the material's) and
+#: while the blades go in
+POUR_FRICTION = 0.1
+#: gravity multiplier while pouring (speeds up the pour; the bed is consolidated at σ ≫ ρgH after).
+#: The bulk density after preshear still remembers the pour, so it is the same on every backend
+POUR_GRAVITY = 3.0
+#: the pour ends when the fastest particle is slower than this, m/s
+POUR_SPEED = 0.02
+#: the head's servo speed limit while it comes down, inserts the blades and consolidates, m/s
+APPROACH_SPEED = 0.2
+#: the fast approach stops with the blade tips this many particle diameters above the bed (and in
+#: any case a tenth of a radius above the highest particle: a blade placed into a sphere launches it)
+APPROACH_CLEARANCE = 0.5
+#: after each rotation the head turns back until its torque has relaxed, at most this far, rad
+#: (as ring shear testers do before σ changes)
+UNLOAD_MAX_ROTATION = 0.05
+#: a particle faster than this, m/s, has escaped or the integration blew up: the run fails
+MAX_SPEED = 20.0
+
+#: consolidation may last this many times its minimum (one preshear rotation) before the backends
+#: give up waiting for the head to settle; consolidations measured at tiny and quick settled within
+#: 1.1–1.8 × the minimum (0.033–0.036 s of 0.02–0.03 s)
+CONSOLIDATION_LIMIT_FACTOR = 6.0
+#: ... and at least this rotation's time: with the blades in the bed (INSERTION_STRESS_FRACTION),
+#: consolidations at tiny took 0.06–0.14 s (0.4–0.9 rad at 6 rad/s, 20 seeds), longer than six
+#: times a short preshear's minimum (the smoke test's 0.02 rad: 0.06 s)
+CONSOLIDATION_LIMIT_ROTATION = 1.0
+
+
+#: the blades go into the bed under this fraction of the preshear stress, before the bed is
+#: consolidated. Placed above the bed and brought down by the servo at the preshear stress, the
+#: blades never entered it: zero-thickness blade edges on a jammed bed carried the whole 15 kPa,
+#: the space between the blades stayed empty (solid fraction < 0.03 within 1.5 diameters of the
+#: disc, tiny, numba_dem) and τ measured the edges sliding on the bed's top (τ/σ of 0.16 to 0.73
+#: from one 0.15 rad window to the next in one preshear), the largest part of the seed scatter
+#: (benchmarks/shear_diagnostics.py)
+INSERTION_STRESS_FRACTION = 0.1
+#: particle–particle and particle–head friction while the blades go in (the pour's, numba_dem's
+#: POUR_FRICTION); the material's friction is switched on before consolidation. At the material's
+#: friction the edges did not cut in even at 1.5 kPa.
+INSERTION_FRICTION = POUR_FRICTION
+#: the insertion ends when the head's lower face has come down to within INSERTION_TOLERANCE_RADII
+#: particle radii of the top of the poured bed's highest particle (every backend measures that the
+#: same way; one seed in twenty stopped 0.07 radii short at the time limit), or after this many times the time
+#: the head takes to come down by its blades' height and two particle diameters at the approach
+#: speed (then the result warns; :func:`insertion_time_limit`)
+INSERTION_TIME_FACTOR = 3.0
+INSERTION_TOLERANCE_RADII = 0.1
+
+
+def insertion_time_limit(spec: "ShearCellSpec", approach_speed: float) -> float:
+    """The longest blade insertion, s: :data:`INSERTION_TIME_FACTOR` × (blade height + 2
+    particle diameters) / ``approach_speed`` (m/s, the backend's servo speed limit while the head
+    comes down), and at least the consolidation's minimum time."""
+    travel = spec.geometry.blade_height + 4.0 * spec.radius
+    return max(INSERTION_TIME_FACTOR * travel / approach_speed, spec.procedure.consolidation_min_time)
