@@ -58,3 +58,9 @@ def test_the_layering_check_sees_an_upward_import(tmp_path):
     assert [m for m, _, _ in found if m.startswith(ABOVE_CORE)] == ["calibrax.plugins.builtin.acquisitions",
                                                                    "calibrax.report"]
     assert found[2][1] == ["_private"]
+
+
+def test_no_module_is_over_500_lines():
+    long = [f"{path.relative_to(ROOT)}: {n} lines" for path in sorted((ROOT / "src").rglob("*.py"))
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > 500]
+    assert not long, "modules to split by job:\n" + "\n".join(long)

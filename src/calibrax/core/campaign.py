@@ -12,6 +12,9 @@ proposed (points enqueued on a later resume run first, as the next batch):
 
 Every proposal is written to the store *before* it runs and every result as soon as it finishes,
 so ``run()`` on an existing store resumes: it re-runs only the simulations that were in flight.
+The simulations run through :class:`~calibrax.core.scheduler.Scheduler`, the loop every study
+shares; the campaign keeps only what is its own: ask the model, screen proposals, decide when to
+stop.
 
 Failures are data: a simulation that crashed, returned NaN, blew up or timed out is stored with
 its reason and log tail. For the search, a point that failed for a physical reason enters the
@@ -27,7 +30,6 @@ parameters, refitted after every batch and stored, and printed at the end.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import logging
 import math
 import time
@@ -37,62 +39,36 @@ from typing import Any, Callable
 
 import numpy as np
 
-from calibrax.core.acquisition import Observations
-from calibrax.core.answer import Answer, answer_from_model
+from calibrax.core.answer import Answer
 from calibrax.core.config import CampaignConfig
-from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
+from calibrax.core.executor import SimulationTask
 from calibrax.core.metric import describe_simulated
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
-from calibrax.core.store import CampaignStore, PointRecord
-from calibrax.errors import CalibraxError, SimulationFailed
 from calibrax.core.design import sobol_points
 from calibrax.core.registry import get_manager
+from calibrax.core.scheduler import Finished, Scheduler
+from calibrax.core.summary import CampaignSummary, noise_text
+from calibrax.core.search import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fit_distance_model,
+                                 observations, screen_repeats, settled)
+from calibrax.core.store import CampaignStore, PointRecord
+from calibrax.errors import CalibraxError
 
 log = logging.getLogger("calibrax")
 HEARTBEAT_S = 30.0
-DUPLICATE_TOL = 1e-3  # unit-cube distance (max norm) under which a proposal repeats a point
-
-
-@dataclass(frozen=True)
-class CampaignSummary:
-    """What a finished (or stopped) campaign reached."""
-
-    store: Path
-    points: int
-    done: int
-    failed: int
-    best_id: int | None
-    best_params: dict[str, float]
-    best_value: float
-    best_uncertainty: float
-    #: the metric's noise threshold at the best point and the rate it holds at (NaN: none stated)
-    noise_threshold: float = float("nan")
-    noise_threshold_rate: float = float("nan")
-    #: the model's answer (recommendation and plausible region), None before a model could be fitted
-    answer: dict[str, Any] | None = None
-
-    def noise_text(self) -> str:
-        """How the best distance compares with the metric's noise threshold, in words."""
-        return noise_text(self.best_value, self.noise_threshold, self.noise_threshold_rate)
-
-
-def noise_text(value: float, threshold: float, rate: float) -> str:
-    """"within the noise (threshold d = 7.5, which the truth meets 95% of the time)", or "outside"."""
-    if not (math.isfinite(threshold) and math.isfinite(value)):
-        return "no noise threshold stated"
-    where = "within" if value <= threshold else "outside"
-    return f"{where} the noise (threshold d = {threshold:.3g}, which the truth meets {rate:.0%} of the time)"
 
 
 @dataclass
 class _InFlight:
-    """One submitted simulation: queued until a worker takes it (``started`` set then)."""
+    """One submitted simulation (the scheduler knows it as ``(point.id, index)``)."""
 
     point: PointRecord
     index: int
     seed: int
     workdir: Path
-    started: float | None = None  # time.monotonic() when a worker took it
+
+    @property
+    def key(self) -> tuple[int, int]:
+        return self.point.id, self.index
 
 
 #: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
@@ -116,32 +92,6 @@ def simulation_workdir(workdir: Path, point_id: int, index: int) -> Path:
 def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> ShearCellSpec:
     """The spec of one simulation: calibrated material values and the seed set on the base spec."""
     return base.replace(material=dict(params), numerics={"seed": int(seed)})
-
-
-def physically_failed(point: PointRecord) -> bool:
-    """Every simulation of the point finished, none gave a metric, and at least one failure was
-    about the parameters (not a lost worker or a cancellation)."""
-    return point.status == "failed" and any(s.status == "failed" and s.kind not in ("worker_lost", "cancelled")
-                                            for s in point.sims)
-
-
-def observations(points: list[PointRecord], penalise_failures: bool = True) -> Observations:
-    """Unit-cube points and distances of every point with a metric, plus (with a penalty distance)
-    every point that failed physically."""
-    d = len(points[0].names) if points else 0
-    done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-    x = [p.unit for p in done]
-    y = [p.metric.value for p in done]
-    y_std = [p.metric.uncertainty for p in done]
-    failed = [p for p in points if physically_failed(p)] if penalise_failures else []
-    if failed and y:
-        penalty = max(y) + 0.1 * (max(y) - min(y) or abs(max(y)) or 1.0)
-        x += [p.unit for p in failed]
-        y += [penalty] * len(failed)
-        y_std += [float("nan")] * len(failed)
-    if not x:
-        return Observations(np.zeros((0, d)), np.zeros(0), np.zeros(0))
-    return Observations(np.stack(x), np.asarray(y, float), np.asarray(y_std, float))
 
 
 def _fmt_params(params: dict[str, float]) -> str:
@@ -170,7 +120,8 @@ class Campaign:
         self.engine = manager.create("simulator", config.simulator)
         self._best: tuple[float, int, dict[str, float]] | None = None
         self._best_noise: tuple[float, float] = (math.nan, math.nan)
-        self._inflight: dict[cf.Future, _InFlight] = {}
+        self._jobs: dict[tuple[int, int], _InFlight] = {}  # in flight, by the scheduler's key
+        self._scheduler: Scheduler | None = None
         self._outcomes: dict[int, dict[int, ShearTestResult | None]] = {}
         #: simulations the whole campaign runs, those started or stored so far, and the engine's
         #: own wall times (s) of those finished in this run (for the time left)
@@ -179,7 +130,6 @@ class Campaign:
         self._sims_finished = 0
         self._engine_walls: list[float] = []
         self._capacity = 1
-        self._starts = StartTracker(self._on_start)
         self._model = None  # the last Kriging model fitted for a proposal
         self._answers: list[Answer] = []  # this run's answers, one per model batch
         self._stopped = False  # the answer settled (budget.patience): no more proposals
@@ -214,50 +164,54 @@ class Campaign:
                 self._best = (previous.best_value, previous.best_id, previous.best_params)
                 self._best_noise = (previous.noise_threshold, previous.noise_threshold_rate)
             executor = get_manager().create("executor", cfg.executor, **cfg.executor_options)
-            self._capacity = max(1, executor.capacity)
+            self._scheduler = Scheduler(executor, on_start=self._on_start)
+            self._capacity = self._scheduler.capacity
             try:
                 for p in store.points():
-                    self._submit(executor, p)
+                    self._submit(p)
                 if not [p for p in store.points() if p.acquisition != WARM_START]:
                     design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
                     enq = self._unqueued(store.points())
                     source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
-                    self._add_batch(store, executor, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
-                self._loop(store, executor)
+                    self._add_batch(store, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
+                self._loop(store)
             except BaseException:
-                executor.shutdown(cancel=True)
+                self._scheduler.shutdown(cancel=True)
                 raise
-            executor.shutdown()
+            self._scheduler.shutdown()
             self._answer(store)
             return self.summary(store)
 
-    def _loop(self, store: CampaignStore, executor) -> None:
+    def _loop(self, store: CampaignStore) -> None:
+        """Ask for points while the budget allows (sync: when a batch has finished; async: when a
+        worker is free), and record what the scheduler returns, until nothing is in flight."""
         cfg = self.config
+        executor = self._scheduler.executor
         last_beat = time.monotonic()
         while True:
             points = store.points()
             target = self._target(points)
-            running = {job.point.id for job in self._inflight.values()}
+            running = {job.point.id for job in self._jobs.values()}
             if len(points) < target and not self._stopped:
                 batch = max(p.batch for p in points) + 1
                 enq = self._unqueued(points)
                 if len(enq) and (cfg.batching == "async" or not running):
-                    self._add_batch(store, executor, batch, enq, "enqueued", None)
+                    self._add_batch(store, batch, enq, "enqueued", None)
                     continue
                 if cfg.batching == "sync" and not running:
-                    self._propose_and_submit(store, executor, points, batch, min(cfg.q, target - len(points)))
+                    self._propose_and_submit(store, points, batch, min(cfg.q, target - len(points)))
                     continue
                 free = executor.capacity - len(running)
                 finished = sum(1 for p in points if p.metric is not None)
                 if cfg.batching == "async" and free > 0 and (finished >= 2 or not running):
-                    self._propose_and_submit(store, executor, points, batch, min(free, target - len(points)),
+                    self._propose_and_submit(store, points, batch, min(free, target - len(points)),
                                              pending=[p for p in points if p.id in running])
                     continue
-            if not self._inflight:
+            if not self._jobs:
                 return
-            for fut in self._starts.wait(self._inflight):
-                self._record(store, self._inflight.pop(fut), fut)
-            if time.monotonic() - last_beat >= HEARTBEAT_S and self._inflight:
+            for done in self._scheduler.wait():
+                self._record(store, self._jobs.pop(done.key), done)
+            if time.monotonic() - last_beat >= HEARTBEAT_S and self._jobs:
                 last_beat = time.monotonic()
                 self._heartbeat()
 
@@ -328,10 +282,9 @@ class Campaign:
                        f"{SETTLED_SHARE:.0%} of it); budget.patience = 0 runs the whole budget",
                        patience=self.config.patience)
 
-    def _on_start(self, fut: cf.Future) -> None:
+    def _on_start(self, key: tuple[int, int]) -> None:
         """A worker took this simulation: log its start ("simulation k of N …")."""
-        job = self._inflight[fut]
-        job.started = time.monotonic()
+        job = self._jobs[key]
         self._sims_started += 1
         p, cfg = job.point, self.config
         self._emit("started", f"simulation {self._sims_started} of {self._sims_total}: point {p.id} sim {job.index}: "
@@ -342,9 +295,10 @@ class Campaign:
     def _heartbeat(self) -> None:
         """"running: point 3 sim 0 (40 s); queued: point 4 sim 0 | 2 of 6 simulations done, … | best …"."""
         now = time.monotonic()
-        jobs = sorted(self._inflight.values(), key=lambda j: (j.point.id, j.index))
-        running = [(f"point {j.point.id} sim {j.index}", now - j.started) for j in jobs if j.started is not None]
-        queued = [f"point {j.point.id} sim {j.index}" for j in jobs if j.started is None]
+        jobs = sorted(self._jobs.values(), key=lambda j: j.key)
+        started = {j.key: self._scheduler.started_at(j.key) for j in jobs}
+        running = [(f"point {j.point.id} sim {j.index}", now - started[j.key]) for j in jobs if started[j.key] is not None]
+        queued = [f"point {j.point.id} sim {j.index}" for j in jobs if started[j.key] is None]
         text = "running: " + (", ".join(f"{name} ({t:.0f} s)" for name, t in running) or "none")
         if queued:
             text += f"; queued: {', '.join(queued)}"
@@ -375,11 +329,11 @@ class Campaign:
                                best.metric.threshold_rate, store.answer())
 
     # ------------------------------------------------------------------------------------------
-    def _propose_and_submit(self, store: CampaignStore, executor, points: list[PointRecord], batch: int, q: int,
+    def _propose_and_submit(self, store: CampaignStore, points: list[PointRecord], batch: int, q: int,
                             pending: list[PointRecord] | None = None) -> None:
         unit, source, model = self._propose(points, batch, q, pending or [])
         unit = self._without_repeats(unit, points, batch)
-        self._add_batch(store, executor, batch, unit, source, model)
+        self._add_batch(store, batch, unit, source, model)
         if self._model is not None:
             self._answer(store, points, self._model)
             self._check_settled()
@@ -426,7 +380,7 @@ class Campaign:
                            level=logging.WARNING, batch=batch)
         return rows
 
-    def _add_batch(self, store: CampaignStore, executor, batch: int, unit: np.ndarray, source: str,
+    def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str,
                    model: dict | None) -> None:
         cfg = self.config
         natural = cfg.space.from_unit(unit)
@@ -438,9 +392,9 @@ class Campaign:
             self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}: "
                        f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=source,
                        params=cfg.space.as_dict(row))
-            self._submit(executor, points[pid])
+            self._submit(points[pid])
 
-    def _submit(self, executor, p: PointRecord) -> None:
+    def _submit(self, p: PointRecord) -> None:
         """Submit the point's simulations that have no outcome yet."""
         cfg = self.config
         pending = [s for s in p.sims if s.status == "pending"]
@@ -457,20 +411,15 @@ class Campaign:
                                   simulation_workdir(cfg.workdir, p.id, s.index))
             self._emit("queued", f"point {p.id} sim {s.index}: queued for {cfg.simulator} (seed {s.seed})",
                        level=logging.DEBUG, point=p.id, sim=s.index, seed=s.seed)
-            self._inflight[executor.submit(task)] = _InFlight(p, s.index, s.seed, task.workdir)
+            job = _InFlight(p, s.index, s.seed, task.workdir)
+            self._jobs[job.key] = job
+            self._scheduler.submit(task, job.key)
 
-    def _record(self, store: CampaignStore, job: _InFlight, fut: cf.Future) -> None:
+    def _record(self, store: CampaignStore, job: _InFlight, done: Finished) -> None:
         """Store one finished simulation; when it is the point's last, the point's metric too."""
         cfg = self.config
         point, index, seed = job.point, job.index, job.seed
-        try:
-            result, failure = fut.result(), None
-        except SimulationFailed as exc:
-            result, failure = None, exc
-        except Exception as exc:  # noqa: BLE001 — an executor fault is this simulation's failure
-            result, failure = None, SimulationFailed(f"executor error {type(exc).__name__}: {exc}", kind="crash")
-        wall = engine_wall_time(result, self._starts.attempt_time(fut))
-        self._starts.started.pop(fut, None)
+        result, failure, wall = done.result, done.failure, done.wall_time
         if result is not None:
             self._engine_walls.append(wall)
         self._sims_finished += 1
@@ -521,114 +470,6 @@ class Campaign:
             return "no best point yet"
         v, pid, params = self._best
         return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)}), {noise_text(v, *self._best_noise)}"
-
-
-#: the answer has settled when, between successive batches, the recommendation moves less than this
-#: (unit cube, max norm) and the plausible region's share of the box changes by less than SETTLED_SHARE
-SETTLED_MOVE = 0.02
-SETTLED_SHARE = 0.02
-
-
-def settled(answers: list[Answer], space, patience: int) -> bool:
-    """Whether the last ``patience`` changes between successive answers were all below the
-    settling limits (False when ``patience`` is 0 or there are too few answers): the stopping rule
-    of ``budget.patience``. More simulations would move neither the recommendation nor the region."""
-    if patience <= 0 or len(answers) < patience + 1:
-        return False
-    for a, b in zip(answers[-patience - 1:-1], answers[-patience:]):
-        ua = space.to_unit(np.asarray([list(a.params.values())]))[0]
-        ub = space.to_unit(np.asarray([list(b.params.values())]))[0]
-        if np.max(np.abs(ua - ub)) >= SETTLED_MOVE or abs(a.region_share - b.region_share) >= SETTLED_SHARE:
-            return False
-    return True
-
-
-def screen_repeats(unit: np.ndarray, points: list[PointRecord],
-                   spare: np.ndarray) -> tuple[np.ndarray, list[tuple[str, str]]]:
-    """Proposals ``unit`` shape (q, d) screened against the campaign's ``points``: one within
-    :data:`DUPLICATE_TOL` (max norm, unit cube) of a point that failed physically is replaced by
-    the first of the ``spare`` points (shape (m, d)) at least 0.05 from every point and proposal,
-    so a crash is never proposed again; one that repeats a finished, pending or just-proposed point
-    is kept: a noise-aware model asks for another seed there, and it runs as a replicate (a new
-    point at the same parameters, its own seed). Returns the rows (q, d) and, per repeat,
-    ("replicate" or "replaced", what it repeated)."""
-    crashed = [physically_failed(p) for p in points]
-    failed = [p.unit for p, c in zip(points, crashed) if c]
-    others = [(p.unit, f"point {p.id}") for p, c in zip(points, crashed) if not c]
-    out, notes = [], []
-    for row in np.atleast_2d(unit):
-        near = lambda ref: np.max(np.abs(ref - row)) < DUPLICATE_TOL  # noqa: E731
-        crash = next((u for u in failed if near(u)), None)
-        if crash is not None:
-            notes.append(("replaced", "proposal repeats a point that failed"))
-            taken = np.stack([p.unit for p in points] + out)
-            row = next((c for c in spare if np.min(np.max(np.abs(taken - c), axis=1)) >= 0.05), row)
-        else:
-            twin = next((name for u, name in others if near(u)), None)
-            if twin is None and any(near(u) for u in out):
-                twin = "another proposal of this batch"
-            if twin is not None:
-                notes.append(("replicate", f"proposal repeats {twin}"))
-        out.append(np.asarray(row, dtype=float))
-    return np.stack(out), notes
-
-
-def _noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
-    """The metric's noise threshold and rate over the finished points (their median: the threshold
-    depends only on the experiment and the seeds per point, so they agree)."""
-    values = [p.metric.threshold for p in finished if math.isfinite(p.metric.threshold)]
-    rates = [p.metric.threshold_rate for p in finished if math.isfinite(p.metric.threshold_rate)]
-    return (float(np.median(values)) if values else math.nan, float(np.median(rates)) if rates else math.nan)
-
-
-def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int,
-                       obs: Observations | None = None):
-    """A :class:`~calibrax.core.surrogate.Kriging` model of the points' distances (penalised
-    failures included) with the options ``surrogate`` ({model, transform, noise}); None with < 2
-    points. ``model: composite`` (the default) fits :func:`fit_composite_model` instead.
-    ``noise: metric`` takes the noise prior from the metric's threshold
-    (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
-    the points' :func:`observations`, when the caller has them already."""
-    from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
-
-    obs = observations(points) if obs is None else obs
-    if len(obs.y) < 2:
-        return None
-    finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-    if surrogate.get("model", "composite") == "composite":
-        model = fit_composite_model(finished, [p for p in points if physically_failed(p)], seed)
-        if model is not None:
-            return model
-    threshold, _ = _noise_threshold(finished)
-    noise_sd = noise_sd_from_threshold(threshold) if surrogate.get("noise", "metric") == "metric" else None
-    return Kriging.fit(obs.x, obs.y, seed=seed, transform=surrogate.get("transform", "log1p"), noise_sd=noise_sd)
-
-
-def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], seed: int):
-    """The :class:`~calibrax.core.composite.CompositeKriging` model of the finished points' distance
-    terms, ``failed`` (physically failed points) as penalties; None with fewer than 2 finished
-    points or when their metrics state no shared terms (the caller then falls back to the distance
-    model)."""
-    from calibrax.core.composite import CompositeKriging, composite_ready
-
-    terms = [p.metric.terms() for p in finished]
-    if len(finished) < 2 or not composite_ready(terms):
-        return None
-    return CompositeKriging.fit(np.stack([p.unit for p in finished]), terms,
-                                np.asarray([p.metric.value for p in finished]), seed=seed,
-                                failed_x=np.stack([p.unit for p in failed]) if failed else None)
-
-
-def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=None) -> Answer | None:
-    """The campaign's :class:`Answer` from ``points``: ``model`` (default: fitted on the points with
-    the campaign's surrogate options and seed) read against the metric's noise threshold; None with
-    fewer than 3 finished points."""
-    finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-    if len(finished) < 3:
-        return None
-    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed)
-    threshold, rate = _noise_threshold(finished)
-    return answer_from_model(model, config.space, threshold, rate, len(finished))
 
 
 def load_answer(store: CampaignStore) -> Answer | None:

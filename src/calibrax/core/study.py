@@ -1,5 +1,7 @@
-"""Running a fixed set of simulations (a cross-check, a convergence study) through an executor into
-a store, with progress and resume — the campaign's machinery without the search.
+"""Running a fixed set of simulations (a cross-check, a convergence study, a diagnosis design) into a
+store, with progress and resume, through the same :class:`~calibrax.core.scheduler.Scheduler` as a
+campaign (a failure, the engine's or the executor's, is stored as data the same way) — the
+campaign's machinery without the search.
 
 A study is a list of :class:`StudyCase` s, each one spec run on one backend with several seeds. Each
 case is stored as a point of a :class:`CampaignStore` (its ``acquisition`` attribute names the case),
@@ -9,7 +11,6 @@ series and provenance.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import hashlib
 import json
 import logging
@@ -20,12 +21,13 @@ from typing import Callable
 
 import numpy as np
 
-from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
+from calibrax.core.executor import SimulationTask
 from calibrax.core.features import result_features, step_mean
+from calibrax.core.scheduler import Finished, Scheduler
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
 from calibrax.core.store import CampaignStore
 from calibrax.core.yieldlocus import YieldLocus
-from calibrax.errors import CalibraxError, SimulationFailed
+from calibrax.errors import CalibraxError
 
 log = logging.getLogger("calibrax")
 
@@ -155,20 +157,17 @@ class CaseOutcome:
         return out
 
 
-def _record(store: CampaignStore, kind: str, cases: list[StudyCase], where: tuple[int, int, int], fut: cf.Future,
-            attempt_s: float) -> None:
+def _record(store: CampaignStore, kind: str, cases: list[StudyCase], done: Finished) -> None:
     """Store one finished simulation of a study (a result or a failure) and log it."""
-    i, pid, index = where
+    i, pid, index = done.key
     seed = cases[i].seeds[index]
-    try:
-        result = fut.result()
-    except SimulationFailed as exc:
+    result, exc, wall = done.result, done.failure, done.wall_time
+    if exc is not None:
         store.add_simulation(pid, index, seed, None, reason=exc.reason, log_tail=exc.log_tail, kind=exc.kind,
-                             wall_time=attempt_s)
+                             wall_time=wall)
         log.warning("%s: %s on %s, seed %d FAILED [%s]: %s", kind, cases[i].label, cases[i].backend, seed,
                     exc.kind, exc.reason)
         return
-    wall = engine_wall_time(result, attempt_s)
     store.add_simulation(pid, index, seed, result, wall_time=wall)
     log.info("%s: %s on %s, seed %d done in %.0f s: peaks %s Pa", kind, cases[i].label, cases[i].backend, seed, wall,
              [round(float(t)) for t in result.peak_shear_stress])
@@ -195,38 +194,35 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
                 values = np.array([list(c.coords.values()) or [float(i)]])
                 store.add_batch(i, np.zeros_like(values), values, names, [list(c.seeds)], f"{c.backend}|{c.label}", None)
         records = store.points()
-        futures: dict[cf.Future, tuple[int, int, int]] = {}
 
-        def on_start(fut: cf.Future) -> None:
-            i, _, index = futures[fut]
+        def on_start(key: tuple[int, int, int]) -> None:
+            i, _, index = key
             log.info("%s: %s on %s, seed %d starts in %s", kind, cases[i].label, cases[i].backend,
                      cases[i].seeds[index], workdir / f"{kind}-{records[i].id:04d}-s{index}")
 
-        starts = StartTracker(on_start)
+        scheduler = Scheduler(executor, on_start)
         for i, (c, p) in enumerate(zip(cases, records)):
             for s in p.sims:
                 if s.status == "pending":
                     spec = c.spec.replace(numerics={"seed": s.seed})
                     task = SimulationTask(p.id, c.backend, spec, workdir / f"{kind}-{p.id:04d}-s{s.index}")
-                    futures[executor.submit(task)] = (i, p.id, s.index)
+                    scheduler.submit(task, (i, p.id, s.index))
         total = sum(len(c.seeds) for c in cases)
-        finished = total - len(futures)
+        finished = total - len(scheduler)
         if progress:
             progress(finished, total)
         try:
-            remaining = set(futures)
-            while remaining:
-                for fut in starts.wait(remaining):
-                    remaining.discard(fut)
-                    _record(store, kind, cases, futures[fut], fut, starts.attempt_time(fut))
+            while scheduler:
+                for done in scheduler.wait():
+                    _record(store, kind, cases, done)
                     finished += 1
                     if progress:
                         progress(finished, total)
         except BaseException:
-            executor.shutdown(cancel=True)
+            scheduler.shutdown(cancel=True)
             raise
         if shutdown:
-            executor.shutdown()
+            scheduler.shutdown()
         outcomes = []
         for c, p in zip(cases, store.points()):
             results = [store.result(p.id, s.index) if s.status == "done" else None for s in p.sims]
