@@ -1,8 +1,8 @@
 """Analytic references the backends' verification cases are checked against (SI units).
 
 Every backend's ``verification`` module runs the same cases on its own engine and compares with
-these: the Hertz contact time of a head-on impact, and the deceleration of a sphere sliding on a
-flat base. Shared here so that "the theory" means one thing for all backends.
+these: the Hertz contact time of a head-on impact, the deceleration of a sphere sliding on a flat
+base, and the rolling torque that stops a sphere spinning on one. Shared here so that "the theory" means one thing for all backends.
 """
 
 from __future__ import annotations
@@ -37,3 +37,14 @@ def sliding_deceleration(t: np.ndarray, v: np.ndarray, speed: float, friction: f
     sel = (t > 0.1 * t_slide) & (t < 0.9 * t_slide)
     slope = np.polyfit(t[sel], v[sel], 1)[0]
     return {"deceleration": -float(slope), "expected": friction * g, "sliding_time": t_slide}
+
+
+def rolling_stop(radius: float, density: float, rolling_friction: float, spin: float,
+                 g: float = 9.81) -> tuple[float, float, float]:
+    """A sphere (radius m, density kg/m³) spinning at ``spin`` rad/s on a flat base under EPSD2
+    rolling resistance: (its moment of inertia 0.4 m r², kg·m²; the saturated rolling torque
+    μr r m g, N·m; the time it takes that torque to stop it, I ω / (μr r m g), s)."""
+    m = 4.0 / 3.0 * math.pi * radius**3 * density
+    inertia = 0.4 * m * radius**2
+    torque = rolling_friction * radius * m * g
+    return inertia, torque, spin * inertia / torque

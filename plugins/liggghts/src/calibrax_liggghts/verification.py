@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.analytic import hertz_contact_time, sliding_deceleration, sliding_time
+from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from . import mesh as meshes
 from .script import integer, num
@@ -146,10 +146,7 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
     linearly. Returns ``torque`` (N·m, I·|dω/dt| over the saturated phase), ``expected``
     (μr R m g) and ``peak_torque`` (N·m, largest I·|Δω/Δt| between samples).
     """
-    m = 4.0 / 3.0 * math.pi * radius**3 * density
-    inertia = 0.4 * m * radius**2
-    expected = rolling_friction * radius * m * g
-    t_stop = spin * inertia / expected
+    inertia, expected, t_stop = rolling_stop(radius, density, rolling_friction, spin, g)
     nsteps = int(0.8 * t_stop / dt)
     every = max(1, nsteps // 400)
     with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from calibrax.core.analytic import hertz_contact_time, sliding_deceleration, sliding_time
+from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params, numba_threads
@@ -101,15 +101,13 @@ def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radiu
     ``peak_torque`` (N·m, largest I·|Δω/Δt| seen step to step).
     """
     e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
+    inertia, expected, t_stop = rolling_stop(radius, density, rolling_friction, spin, g)
     m = 4.0 / 3.0 * math.pi * radius**3 * density
-    inertia = 0.4 * m * radius**2
     z0 = radius - _rest_overlap(radius, m, e_star, g)
     sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
                     _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
                             mu_base=0.0, mur_base=rolling_friction))
     sys.w[0, 0] = spin
-    expected = rolling_friction * radius * m * g
-    t_stop = spin * inertia / expected
     nsteps = int(0.8 * t_stop / dt)
     ws = np.empty(nsteps)
     for k in range(nsteps):
