@@ -64,3 +64,4 @@ def test_no_module_is_over_500_lines():
     long = [f"{path.relative_to(ROOT)}: {n} lines" for path in sorted((ROOT / "src").rglob("*.py"))
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 500]
     assert not long, "modules to split by job:\n" + "\n".join(long)
+

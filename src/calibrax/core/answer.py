@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.parameters import DISPLAY, ParameterSpace
 
 #: a parameter whose plausible values span at least this share of its searched range (unit cube) is
 #: reported as not constrained by the test
@@ -36,10 +36,6 @@ REGION_SIGMAS = 2.0
 #: scrambled Sobol points over the box on which the region and the recommendation are evaluated
 GRID_POINTS = 4096
 
-#: display symbol, scale and unit per parameter (E in GPa)
-DISPLAY = {"youngs_modulus": ("E", 1e-9, "GPa"), "sliding_friction": ("μs", 1.0, ""),
-           "rolling_friction": ("μr", 1.0, ""), "restitution": ("e", 1.0, ""), "poisson_ratio": ("ν", 1.0, ""),
-           "density": ("ρ", 1.0, "kg/m³"), "cohesion_energy_density": ("k_coh", 1e-3, "kJ/m³")}
 
 
 def _show(name: str, value: float) -> str:

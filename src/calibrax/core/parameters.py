@@ -14,22 +14,46 @@ import numpy as np
 
 from calibrax.errors import ConfigError
 
-#: Parameters a campaign may calibrate: the spec's ``material`` fields and the allowed range of
-#: each (inclusive low, exclusive/inclusive high as stated in the message).
-CALIBRATABLE: dict[str, tuple[float, float]] = {
-    "youngs_modulus": (1.0e5, 1.0e13),
-    "sliding_friction": (0.0, 5.0),
-    "rolling_friction": (0.0, 5.0),
-    "restitution": (1.0e-3, 1.0),
-    "poisson_ratio": (0.0, 0.49999),
-    "density": (1.0, 1.0e5),
-    "cohesion_energy_density": (0.0, 1.0e9),
-}
+@dataclass(frozen=True)
+class CalibratableField:
+    """One material field (:class:`~calibrax.core.sheartest.Material`) a campaign may calibrate.
+
+    Attributes:
+        name: the ``material`` field and the campaign file's parameter name.
+        unit: its SI unit ("-": dimensionless), for tables and axes.
+        low, high: the range a search box may span (both inclusive).
+        symbol: the symbol answers, logs and figures show (``E``, ``μs``).
+        display_scale, display_unit: what the value is multiplied by for display, and the unit
+            then (E shown in GPa: 1e-9, "GPa").
+    """
+
+    name: str
+    unit: str
+    low: float
+    high: float
+    symbol: str
+    display_scale: float = 1.0
+    display_unit: str = ""
 
 
-#: the unit of each calibratable parameter, for tables and axes ("-": dimensionless)
-UNITS: dict[str, str] = {"youngs_modulus": "Pa", "sliding_friction": "-", "rolling_friction": "-", "restitution": "-",
-                         "poisson_ratio": "-", "density": "kg/m³", "cohesion_energy_density": "J/m³"}
+#: the one registry of calibratable parameters; everything else (the allowed ranges, the units,
+#: the display symbols) is read off it, and a unit test checks it against the Material fields
+FIELDS: dict[str, CalibratableField] = {f.name: f for f in (
+    CalibratableField("youngs_modulus", "Pa", 1.0e5, 1.0e13, "E", 1e-9, "GPa"),
+    CalibratableField("sliding_friction", "-", 0.0, 5.0, "μs"),
+    CalibratableField("rolling_friction", "-", 0.0, 5.0, "μr"),
+    CalibratableField("restitution", "-", 1.0e-3, 1.0, "e"),
+    CalibratableField("poisson_ratio", "-", 0.0, 0.49999, "ν"),
+    CalibratableField("density", "kg/m³", 1.0, 1.0e5, "ρ", 1.0, "kg/m³"),
+    CalibratableField("cohesion_energy_density", "J/m³", 0.0, 1.0e9, "k_coh", 1e-3, "kJ/m³"),
+)}
+#: {name: (low, high)}: the range each calibratable parameter's box may span
+CALIBRATABLE: dict[str, tuple[float, float]] = {n: (f.low, f.high) for n, f in FIELDS.items()}
+#: {name: unit} for tables and axes ("-": dimensionless)
+UNITS: dict[str, str] = {n: f.unit for n, f in FIELDS.items()}
+#: {name: (symbol, display scale, display unit)}
+DISPLAY: dict[str, tuple[str, float, str]] = {n: (f.symbol, f.display_scale, f.display_unit) for n, f in FIELDS.items()}
+
 
 @dataclass(frozen=True)
 class Parameter:

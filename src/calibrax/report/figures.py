@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from calibrax.core.answer import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
+from calibrax.core.parameters import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
 from calibrax.core.surrogate import Kriging  # noqa: E402
 from calibrax.report.data import CampaignData  # noqa: E402
 
