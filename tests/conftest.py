@@ -52,7 +52,8 @@ import yaml
 
 from tests.bank import JOBS, SMOKE_NUMERICS, SMOKE_PROCEDURE, SimulationBank, read_engine_runs
 
-DOUBLE_MODULE = "tests.doubles.analytic_simulator"
+#: the test doubles, registered through CALIBRAX_PLUGINS as a third party would register a plugin
+DOUBLE_MODULE = "tests.doubles.analytic_simulator,tests.doubles.thirdparty_plugin"
 TRUE_E, TRUE_MU = 2.0e10, 0.45
 
 

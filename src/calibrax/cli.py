@@ -334,12 +334,12 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
     if not args.no_micro:
         known = known_differences(backends)
         (out / "crosscheck-micro.json").write_text(json.dumps(
-            {"material": micro_material(config), "checks": checks,
+            {"material": dataclasses.asdict(micro_material(config)), "checks": checks,
              "known_differences": {b: {f"{f}.{q}": why for (f, q), why in k.items()} for b, k in known.items()}},
             indent=1, default=float), encoding="utf-8")
     micro = micro_agreement(checks, known)
     text = crosscheck_markdown(outcomes, agreements(outcomes), micro, checks, known,
-                               None if args.no_micro else micro_material(config))
+                               None if args.no_micro else dataclasses.asdict(micro_material(config)))
     (out / "crosscheck.md").write_text(text, encoding="utf-8")
     crosscheck_figure(outcomes, out)
     print(text)

@@ -17,7 +17,8 @@ CASES = [
     (lambda c: c.pop("simulator"), "simulator: is required"),
     (lambda c: c.update(simulator="fortran_dem"), "simulator: unknown simulator 'fortran_dem'; known: ["),
     (lambda c: c.update(acquisition={"name": "ucb", "q": 2}), "acquisition: unknown acquisition 'ucb'; known: ['qei'"),
-    (lambda c: c.update(metric="rmse"), "metric: unknown metric 'rmse'; known: ['c_aif', 'robust']"),
+    # double_terms: the third-party-style test plugin (tests/doubles/thirdparty_plugin.py)
+    (lambda c: c.update(metric="rmse"), "metric: unknown metric 'rmse'; known: ['c_aif', 'double_terms', 'robust']"),
     (lambda c: c["parameters"]["sliding_friction"].update(low=0.9, high=0.1), "parameters.sliding_friction: low must be < high"),
     (lambda c: c["parameters"]["youngs_modulus"].update(low="5 GPa"), "parameters.youngs_modulus.low: must be a number"),
     (lambda c: c.update(budget={"initial": 1, "iterations": 3}), "budget.initial: must be an integer ≥ 2"),

@@ -412,8 +412,9 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     enqueue = _enqueued(raw.get("enqueue", []), space)
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
     # Build the plugins once so their own option checks run now, not mid-campaign.
-    from calibrax.core.simulator import check_capabilities
+    from calibrax.core.metric import TermsMetric
     from calibrax.core.registry import get_manager
+    from calibrax.core.simulator import check_capabilities
 
     manager = get_manager()
     for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options),
@@ -426,10 +427,10 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         metric_obj = manager.create("metric", metric, **metric_options)
         metric_obj.scales(experiment) if hasattr(metric_obj, "scales") else None
         asked = isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite"
-        if asked and not getattr(metric_obj, "states_terms", False):  # by default: the distance model stands in
+        if asked and not isinstance(metric_obj, TermsMetric):  # by default: the distance model stands in
             raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
-                              f"(X_sim, X_exp, X_scale); metric {metric!r} does not: use model: distance, or the "
-                              "metric c_aif or robust")
+                              f"(calibrax.core.metric.TermsMetric); metric {metric!r} does not: use model: "
+                              "distance, or the metric c_aif or robust")
         check_capabilities(manager.create("simulator", simulator), spec)
     except PluginError as exc:
         raise ConfigError("simulator", str(exc)) from None

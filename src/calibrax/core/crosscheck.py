@@ -5,30 +5,27 @@ report the peaks of each step, the bulk density, C and AIF with the regression s
 seed-to-seed s.d., and whether each pair of backends agrees: |Δ| ≤ 2·√(u_a² + u_b²), with
 u = max(regression s.e., seed s.d./√n).
 
-Micro level: each backend's ``verification`` module (the sibling module ``verification`` of its
-simulator class) runs the analytic cases — a head-on two-sphere collision (contact time,
-restitution, peak overlap), sliding on the base, rolling resistance — at the config's material,
-and the values are set side by side; they agree when they lie within 2 % of their mean. A
-quantity in which a backend's contact law differs by construction is listed in its module's
-``KNOWN_DIFFERENCES`` ({(function, quantity): why}); the table then says so and why.
+Micro level: each backend's :class:`~calibrax.core.verification.Verification` (registered through the
+``calibrax_verifications`` hook under the simulator's name) runs the analytic cases — a head-on
+two-sphere collision (contact time, restitution, peak overlap), sliding on the base, rolling
+resistance — at the config's material, and the values are set side by side; they agree when they
+lie within 2 % of their mean. A quantity in which a backend's contact law differs by construction is
+listed in its ``known_differences`` ({(case method, quantity): why}); the table then says so and why.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
-import importlib
-import inspect
 import itertools
 import logging
 import math
 from dataclasses import dataclass
-from types import ModuleType
-from typing import Any
 
 from calibrax.core.config import CampaignConfig
-from calibrax.core.study import CaseOutcome, StudyCase
-from calibrax.errors import ConfigError, PluginError
 from calibrax.core.registry import get_manager
+from calibrax.core.study import CaseOutcome, StudyCase
+from calibrax.core.verification import MICRO_CASES, MicroMaterial, Verification
+from calibrax.errors import ConfigError, PluginError
 
 log = logging.getLogger("calibrax")
 MICRO_TOLERANCE = 0.02
@@ -119,22 +116,12 @@ def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
     return out
 
 
-def verification_module(backend: str) -> ModuleType | None:
-    """The backend's ``verification`` module, beside its simulator class (None if it has none)."""
-    cls = get_manager().get("simulator", backend).cls
-    package = cls.__module__.rsplit(".", 1)[0]
-    try:
-        return importlib.import_module(f"{package}.verification")
-    except ImportError:
-        return None
+def verification_for(backend: str) -> Verification | None:
+    """The backend's registered :class:`~calibrax.core.verification.Verification` (None if it has
+    none: its micro cases are then left out of the table)."""
+    found = get_manager().plugins("verification").get(backend)
+    return found.cls() if found is not None else None
 
-
-MICRO_CASES: dict[str, tuple[str, dict[str, Any]]] = {
-    "collision e=1": ("two_sphere_collision", {"restitution": 1.0}),
-    "collision e=material": ("two_sphere_collision", {}),
-    "sliding on base": ("sliding_on_base", {}),
-    "rolling resistance": ("rolling_resistance", {}),
-}
 #: quantities compared on an absolute scale (tolerance 2 % of max(|mean|, scale)): a relative
 #: difference of values near zero, like the energy change of an elastic impact, means nothing
 ABSOLUTE_SCALE = {"energy_change": 1.0}
@@ -142,27 +129,24 @@ ABSOLUTE_SCALE = {"energy_change": 1.0}
 NOT_COMPARED = {"error", "dt"}
 
 
-def micro_material(config: CampaignConfig) -> dict[str, float]:
-    """The keyword arguments of the micro cases: the config's material and radius."""
+def micro_material(config: CampaignConfig) -> MicroMaterial:
+    """The material of the micro cases: the config's material and radius."""
     m = config.spec.material
-    return {"radius": config.spec.radius, "youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio,
-            "density": m.density, "restitution": m.restitution, "friction": m.sliding_friction,
-            "rolling_friction": m.rolling_friction}
+    return MicroMaterial(radius=config.spec.radius, youngs_modulus=m.youngs_modulus, poisson_ratio=m.poisson_ratio,
+                         density=m.density, restitution=m.restitution, friction=m.sliding_friction,
+                         rolling_friction=m.rolling_friction)
 
 
-def _micro_backend(backend: str, material: dict[str, float]) -> dict[str, dict[str, float]]:
-    """{case: {quantity: value}} of every micro case ``backend``'s verification module implements."""
-    module = verification_module(backend)
+def _micro_backend(backend: str, material: MicroMaterial) -> dict[str, dict[str, float]]:
+    """{case: {quantity: value}} of every micro case of ``backend``'s verification."""
+    verification = verification_for(backend)
     out: dict[str, dict[str, float]] = {}
-    for case, (function, fixed) in MICRO_CASES.items():
-        fn = getattr(module, function, None) if module is not None else None
-        if fn is None:
-            continue
-        accepted = inspect.signature(fn).parameters
-        kwargs = {k: v for k, v in {**material, **fixed}.items() if k in accepted}
+    if verification is None:
+        return out
+    for case, (method, changes) in MICRO_CASES.items():
         log.info("crosscheck: micro case %r on %s", case, backend)
         try:
-            values = fn(**kwargs)
+            values = getattr(verification, method)(material.replace(**changes))
         except Exception as exc:  # noqa: BLE001 — a failed check is shown as such, not a crash
             values = {"error": f"{type(exc).__name__}: {exc}"}
         out[case] = {k: (float(v) if k != "error" else v) for k, v in values.items()
@@ -186,12 +170,12 @@ def micro_checks(config: CampaignConfig, backends: list[str],
 
 
 def known_differences(backends: list[str]) -> dict[str, dict[tuple[str, str], str]]:
-    """{backend: {(function, quantity): why}} from each verification module's ``KNOWN_DIFFERENCES``:
-    the micro-level quantities in which a backend's contact law differs by construction."""
+    """{backend: {(case method, quantity): why}} from each backend's verification: the micro-level
+    quantities in which its contact law differs by construction."""
     out = {}
     for b in backends:
-        module = verification_module(b)
-        out[b] = dict(getattr(module, "KNOWN_DIFFERENCES", {}) or {}) if module is not None else {}
+        verification = verification_for(b)
+        out[b] = dict(verification.known_differences) if verification is not None else {}
     return out
 
 

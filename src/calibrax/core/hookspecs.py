@@ -39,5 +39,11 @@ def calibrax_executors() -> list[type]:
 
 
 @hookspec
+def calibrax_verifications() -> list[type]:
+    """Verification classes (see :class:`calibrax.core.verification.Verification`): a backend's
+    analytic checks, each class named after the simulator it verifies, built with no arguments."""
+
+
+@hookspec
 def calibrax_effects() -> list[type]:
     """Candidate unmodelled effects for ``calibrax diagnose`` (wall friction, size distribution, …)."""

@@ -1,4 +1,11 @@
-"""The Metric protocol: a scalar distance between simulation and experiment, to minimise."""
+"""The Metric protocol: a scalar distance between simulation and experiment, to minimise.
+
+A metric whose distance is d = √Σ ((sim − exp)/scale)² over named features implements
+:class:`TermsMetric` as well: it says which terms it compares (:meth:`TermsMetric.term_names`) and
+returns them in every value's ``distance_terms`` ({name: :class:`DistanceTerm`}). The composite
+Kriging model (one GP per term, the default) needs such a metric; any other metric is modelled by a
+GP of its distance.
+"""
 
 from __future__ import annotations
 
@@ -37,6 +44,8 @@ class MetricValue:
     value: float
     uncertainty: float
     features: dict[str, float] = field(default_factory=dict)
+    #: the distance's terms, where the metric states them (:class:`TermsMetric`)
+    distance_terms: dict[str, "DistanceTerm"] = field(default_factory=dict)
 
     @property
     def threshold(self) -> float:
@@ -53,22 +62,37 @@ class MetricValue:
         return bool(self.value <= self.threshold)
 
     def terms(self) -> dict[str, DistanceTerm]:
-        """The distance's terms, {name: :class:`DistanceTerm`}, where the metric states them:
-        d = √Σ ((sim − exp)/scale)² over features named ``X_sim``, ``X_exp`` and ``X_scale`` (or
-        ``scale_X``), with ``X_sim_stderr`` as the simulated value's 1-σ noise where given. Empty
-        when the metric names no such terms (the composite model then cannot be used)."""
-        out = {}
-        for key, sim in self.features.items():
-            if not key.endswith("_sim"):
-                continue
-            name = key[: -len("_sim")]
-            exp = self.features.get(f"{name}_exp")
-            scale = self.features.get(f"{name}_scale", self.features.get(f"scale_{name}"))
-            if exp is None or scale is None:
-                continue
-            out[name] = DistanceTerm(float(sim), float(exp), float(scale),
-                                     float(self.features.get(f"{name}_sim_stderr", float("nan"))))
-        return out
+        """The distance's terms, {name: :class:`DistanceTerm`}: :attr:`distance_terms`, or for a value
+        read back from a store, those its stored features encode (:func:`terms_from_features`).
+        Empty when the metric states none (the composite model then cannot be used)."""
+        return dict(self.distance_terms) if self.distance_terms else terms_from_features(self.features)
+
+
+def terms_from_features(features: dict[str, float]) -> dict[str, "DistanceTerm"]:
+    """The distance terms a store keeps among a value's features (:func:`terms_as_features`):
+    ``X_sim``, ``X_exp`` and ``X_scale`` (or ``scale_X``), with ``X_sim_stderr`` as the simulated
+    value's 1-σ noise where given."""
+    out = {}
+    for key, sim in features.items():
+        if not key.endswith("_sim"):
+            continue
+        name = key[: -len("_sim")]
+        exp = features.get(f"{name}_exp")
+        scale = features.get(f"{name}_scale", features.get(f"scale_{name}"))
+        if exp is None or scale is None:
+            continue
+        out[name] = DistanceTerm(float(sim), float(exp), float(scale),
+                                 float(features.get(f"{name}_sim_stderr", float("nan"))))
+    return out
+
+
+def terms_as_features(terms: dict[str, "DistanceTerm"]) -> dict[str, float]:
+    """Distance terms as the flat features a store keeps (the inverse of :func:`terms_from_features`)."""
+    out: dict[str, float] = {}
+    for name, t in terms.items():
+        out.update({f"{name}_sim": t.sim, f"{name}_exp": t.exp, f"{name}_scale": t.scale,
+                    f"{name}_sim_stderr": t.sim_stderr})
+    return out
 
 
 @dataclass(frozen=True)
@@ -91,4 +115,14 @@ class Metric(Protocol):
 
     def evaluate(self, results: list[ShearTestResult], experiment: Experiment) -> MetricValue:
         """Distance of ``results`` (≥ 1 shear tests at the same parameters) to ``experiment``."""
+        ...
+
+
+@runtime_checkable
+class TermsMetric(Metric, Protocol):
+    """A :class:`Metric` whose distance is d = √Σ ((sim − exp)/scale)² over named terms, stated in
+    every value's ``distance_terms``; the composite Kriging model needs one."""
+
+    def term_names(self, experiment: Experiment) -> list[str]:
+        """The terms the distance compares against ``experiment`` (``["cohesion", "aif"]``)."""
         ...

@@ -30,6 +30,7 @@ HOOKS = {
     "acquisition": "calibrax_acquisitions",
     "executor": "calibrax_executors",
     "effect": "calibrax_effects",
+    "verification": "calibrax_verifications",
 }
 #: the distribution whose entry points are the builtins, loaded before any other
 BUILTIN_DISTRIBUTION = "calibrax"

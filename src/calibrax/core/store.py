@@ -31,7 +31,7 @@ import h5py
 import numpy as np
 
 from calibrax.core.experiment import Experiment
-from calibrax.core.metric import MetricValue
+from calibrax.core.metric import MetricValue, terms_as_features
 from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
@@ -316,7 +316,8 @@ class CampaignStore:
             if metric is not None:
                 m = g.require_group("metric")
                 m.attrs.update({"value": metric.value, "uncertainty": metric.uncertainty,
-                                "features": json.dumps(metric.features)})
+                                "features": json.dumps({**terms_as_features(metric.distance_terms),
+                                                        **metric.features})})
             if metric_error:
                 g.attrs["metric_error"] = metric_error
 

@@ -9,3 +9,11 @@ from .simulator import LiggghtsSimulator
 def calibrax_simulators() -> list[type]:
     """The simulators of this package."""
     return [LiggghtsSimulator]
+
+
+@hookimpl
+def calibrax_verifications() -> list[type]:
+    """The analytic checks of this package's simulator (calibrax crosscheck's micro level)."""
+    from .verification import LiggghtsVerification
+
+    return [LiggghtsVerification]

@@ -13,13 +13,14 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.verification import FunctionVerification
 from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from . import mesh as meshes
 from .script import integer, num
 from .simulator import run_liggghts
 
-__all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
+__all__ = ["LiggghtsVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
 
 
 def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
@@ -162,3 +163,13 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
     sel = t > 0.2 * t[-1]
     slope = np.polyfit(t[sel], w[sel], 1)[0]
     return {"torque": -float(slope) * inertia, "expected": expected, "peak_torque": float(np.max(np.abs(torques)))}
+
+
+class LiggghtsVerification(FunctionVerification):
+    """liggghts's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+
+    name = "liggghts"
+    known_differences = {}
+    collision = staticmethod(two_sphere_collision)
+    sliding = staticmethod(sliding_on_base)
+    rolling = staticmethod(rolling_resistance)

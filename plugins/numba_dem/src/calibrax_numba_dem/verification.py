@@ -10,12 +10,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from calibrax.core.verification import FunctionVerification
 from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params, numba_threads
 
-__all__ = ["hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
+__all__ = ["NumbaDEMVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
            "resting_bed_base_load"]
 
 
@@ -164,3 +165,13 @@ two_sphere_collision = _threaded(_two_sphere_collision)
 sliding_on_base = _threaded(_sliding_on_base)
 rolling_resistance = _threaded(_rolling_resistance)
 resting_bed_base_load = _threaded(_resting_bed_base_load)
+
+
+class NumbaDEMVerification(FunctionVerification):
+    """numba_dem's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+
+    name = "numba_dem"
+    known_differences = {}
+    collision = staticmethod(two_sphere_collision)
+    sliding = staticmethod(sliding_on_base)
+    rolling = staticmethod(rolling_resistance)

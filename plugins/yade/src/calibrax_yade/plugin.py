@@ -9,3 +9,11 @@ from .simulator import YadeSimulator
 def calibrax_simulators() -> list[type]:
     """The simulators of this package."""
     return [YadeSimulator]
+
+
+@hookimpl
+def calibrax_verifications() -> list[type]:
+    """The analytic checks of this package's simulator (calibrax crosscheck's micro level)."""
+    from .verification import YadeVerification
+
+    return [YadeVerification]

@@ -15,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from calibrax.core.verification import FunctionVerification
 from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 from calibrax.core.sheartest import Material, ShearCellSpec
 from calibrax.errors import SimulationFailed
@@ -22,7 +23,7 @@ from calibrax.errors import SimulationFailed
 from .contact import contact_params, effective_moduli
 from .runner import find_yade, run_yade, script_path, write_params
 
-__all__ = ["hertz_contact_time", "thornton_beta", "liggghts_beta", "damped_hertz_impact", "damped_hertz_restitution",
+__all__ = ["YadeVerification", "hertz_contact_time", "thornton_beta", "liggghts_beta", "damped_hertz_impact", "damped_hertz_restitution",
            "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
 
 
@@ -248,3 +249,13 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
     slope = np.polyfit(t[sel], w[sel], 1)[0]
     return {"torque": -float(slope) * inertia, "expected": expected, "peak_torque": float(np.max(np.abs(torques))),
             "yade_limit": 0.75 * expected}
+
+
+class YadeVerification(FunctionVerification):
+    """yade's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+
+    name = "yade"
+    known_differences = KNOWN_DIFFERENCES
+    collision = staticmethod(two_sphere_collision)
+    sliding = staticmethod(sliding_on_base)
+    rolling = staticmethod(rolling_resistance)

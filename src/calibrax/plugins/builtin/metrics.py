@@ -16,7 +16,7 @@ import numpy as np
 
 from calibrax.core.experiment import Experiment
 from calibrax.core.features import experiment_features, result_features, step_mean, summarise
-from calibrax.core.metric import MetricValue
+from calibrax.core.metric import MetricValue, terms_from_features
 from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.threshold import DEFAULT_RATE, noise_threshold, welch_dof
 from calibrax.core.yieldlocus import YieldLocus
@@ -44,8 +44,6 @@ class CAifMetric:
     """
 
     name = "c_aif"
-    #: its features name the distance's terms (MetricValue.terms): the composite model can use it
-    states_terms = True
     OPTIONS = {"scale_cohesion_pa": float, "scale_aif_deg": float, "against": str}
 
     def __init__(self, scale_cohesion_pa: float | None = None, scale_aif_deg: float | None = None,
@@ -110,7 +108,11 @@ class CAifMetric:
             "cohesion_exp": exp.cohesion, "aif_exp": exp.aif_deg,
             "scale_cohesion": s_c, "scale_aif": s_a, **_threshold_features(limit, DEFAULT_RATE, how),
         }
-        return MetricValue(d, unc, features)
+        return MetricValue(d, unc, features, terms_from_features(features))
+
+    def term_names(self, experiment: Experiment) -> list[str]:
+        """C and AIF (a :class:`~calibrax.core.metric.TermsMetric`)."""
+        return ["cohesion", "aif"]
 
 
 class RobustMetric:
@@ -140,7 +142,6 @@ class RobustMetric:
     """
 
     name = "robust"
-    states_terms = True
     STEMS = ("peak_ratio", "preshear_ratio", "shear_end_ratio", "bulk_density")
     DEFAULT = ("peak_ratio", "preshear_ratio", "bulk_density")
     OPTIONS = {"features": list, "seed_spread": dict, "seed_spread_seeds": int}
@@ -225,7 +226,7 @@ class RobustMetric:
             feats[f"{name}_sim"], feats[f"{name}_exp"], feats[f"{name}_scale"] = sim[name].mean, e.mean, scale
             feats[f"{name}_sim_stderr"] = math.sqrt(var_sim)
         if not dofs:
-            return MetricValue(math.nan, math.nan, feats)
+            return MetricValue(math.nan, math.nan, feats, terms_from_features(feats))
         d = math.sqrt(total)
         limit = noise_threshold(dofs)
         how = (f"{len(dofs)} features, seed spread {'given' if self.seed_spread else 'from the replicates'}, "
@@ -236,7 +237,11 @@ class RobustMetric:
                  for n in seed_var]
         unc = math.sqrt(sum(grad2)) / d if d > 0 else 0.0
         feats.update(_threshold_features(limit, DEFAULT_RATE, how))
-        return MetricValue(d, unc, feats)
+        return MetricValue(d, unc, feats, terms_from_features(feats))
+
+    def term_names(self, experiment: Experiment) -> list[str]:
+        """The features compared that the experiment has (a :class:`~calibrax.core.metric.TermsMetric`)."""
+        return sorted(self._experiment_summary(experiment))
 
 
 @hookimpl
