@@ -217,7 +217,7 @@ def _print_check(config) -> None:
     run checks them; nothing is run or written."""
     from calibrax.core.store import CampaignStore
 
-    exists = CampaignStore(config.store).check(config.search_hash())
+    exists = CampaignStore(config.store).check(config.search_hash(), config.store_mismatch)
     spec = config.spec
     print(yaml.safe_dump(config.resolved, sort_keys=False, allow_unicode=True), end="")
     print(f"# cell: {spec.particle_count} particles, {spec.particles_per_diameter:.1f} per diameter, "

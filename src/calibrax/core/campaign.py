@@ -139,8 +139,9 @@ class Campaign:
         cfg = self.config
         from calibrax import __version__
 
-        with CampaignStore(cfg.store).acquire(cfg.search_hash()) as store:
-            created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment)
+        with CampaignStore(cfg.store).acquire(cfg.search_hash(), cfg.store_mismatch) as store:
+            created = store.initialise(cfg.search_hash(), cfg.resolved, __version__, cfg.experiment,
+                                       mismatch=cfg.store_mismatch)
             if created and cfg.warm_start is not None:
                 self._warm_start(store, cfg.warm_start)
             points = store.points()

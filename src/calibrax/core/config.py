@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from calibrax.core.experiment import Experiment, load_experiment
+from calibrax.core.experiment import Experiment, experiment_fingerprint, load_experiment
 from calibrax.core.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
@@ -97,15 +97,33 @@ class CampaignConfig:
         return len(self.enqueue) + self.initial + self.iterations * self.q
 
     def search_hash(self) -> str:
-        """Hash of what defines the search (not budget, executor or paths): a store made with a
-        different one cannot be resumed with this config."""
-        # the surrogate's options and the enqueued points may change on resume: stored points are
-        # data whatever proposed them
-        keep = {k: v for k, v in self.resolved.items() if k not in ("budget", "executor", "store", "workdir",
-                                                                      "description", "name", "surrogate", "enqueue",
-                                                                      "warm_start")}
-        keep = _without_added_defaults(keep)
-        return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
+        """Hash of what defines the search (not budget, executor or paths; the experiment by its
+        data, not its path): a store made with a different one cannot be resumed with this config."""
+        return search_identity(self.resolved, self.experiment)
+
+    def store_mismatch(self, stored_config: dict[str, Any], stored_experiment: Experiment | None) -> str | None:
+        """Why a store made with ``stored_config`` (its resolved config) and ``stored_experiment``
+        (the experiment's data it keeps) cannot be resumed with this config, or None if it can. A
+        store written before the search hash ignored the experiment's path carries that older hash;
+        this compares what defines the search instead, so it resumes from any folder."""
+        made = search_identity(stored_config, stored_experiment)
+        if made == self.search_hash():
+            return None
+        if search_identity(stored_config, self.experiment) == self.search_hash():
+            return (f"the experiment's data ({self.resolved['experiment']}) are not those the store was made "
+                    "with: the experiment file has changed")
+        return f"search hash {made} ≠ {self.search_hash()}"
+
+
+def search_identity(resolved: dict[str, Any], experiment: Experiment | None) -> str:
+    """Hash of what defines a search: the resolved config without budget, executor, paths, names,
+    the surrogate's options and the enqueued or warm-start points (stored points are data whatever
+    proposed them), and the experiment by its data (:func:`~calibrax.core.experiment.experiment_fingerprint`)."""
+    keep = {k: v for k, v in resolved.items() if k not in ("budget", "executor", "store", "workdir", "description",
+                                                           "name", "surrogate", "enqueue", "warm_start", "experiment")}
+    keep = _without_added_defaults(keep)
+    keep["experiment_data"] = experiment_fingerprint(experiment) if experiment is not None else None
+    return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
 # ----------------------------------------------------------------------------- small checkers

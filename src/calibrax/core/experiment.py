@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -282,3 +283,31 @@ def _positive_number(path: Path, header: dict, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise ExperimentError(f"{path}: {key}", f"must be a finite number > 0, got {value!r}")
     return float(value)
+
+
+def experiment_fingerprint(experiment: Experiment) -> str:
+    """A hash of an experiment's data (points, preshear, curves, densities, wall friction angle,
+    known material), not of its name, provenance text or file paths: the same measurements read
+    from another folder, or from a copy, give the same fingerprint."""
+    import hashlib
+
+    h = hashlib.sha256()
+
+    def add(value) -> None:
+        h.update(np.ascontiguousarray(np.asarray(value, dtype=float)).tobytes())
+        h.update(b"|")
+
+    for arr in (experiment.normal_stress, experiment.peak_shear_stress, experiment.replicate,
+                experiment.preshear_stress, experiment.preshear_shear_stress, experiment.wall_friction_angle_deg):
+        add(arr)
+    for name in ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density"):
+        value = getattr(experiment, name)
+        h.update(name.encode())
+        if value is not None:
+            add(value)
+    for key in sorted(experiment.curves):
+        add(key)
+        for arr in experiment.curves[key]:
+            add(arr)
+    h.update(json.dumps(experiment.material, sort_keys=True).encode())
+    return h.hexdigest()[:16]

@@ -32,6 +32,9 @@ import numpy as np
 
 from calibrax.core.experiment import Experiment
 from calibrax.core.metric import MetricValue, terms_as_features
+
+#: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
+Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
 from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
@@ -133,15 +136,16 @@ class CampaignStore:
     def tmp_path(self) -> Path:
         return self.path.with_name(self.path.name + ".tmp")
 
-    def check(self, search_hash: str) -> bool:
+    def check(self, search_hash: str, mismatch: Mismatch | None = None) -> bool:
         """What a run checks of its store, writing nothing (so that ``run --check`` and a refused run
         leave no file behind): :meth:`check_folder`, and that an existing store is a calibrax store
-        made for ``search_hash``. True if the store exists."""
+        made for ``search_hash`` (or, with ``mismatch``, one that it finds nothing against: see
+        :meth:`_check_belongs`). True if the store exists."""
         self.check_folder()
         if not self.path.exists():
             return False
         with self._read() as f:
-            self._check_belongs(f, search_hash)
+            self._check_belongs(f, search_hash, mismatch)
         return True
 
     def check_folder(self) -> None:
@@ -165,14 +169,14 @@ class CampaignStore:
             os.close(fd)
         return False
 
-    def acquire(self, search_hash: str | None = None) -> "CampaignStore":
+    def acquire(self, search_hash: str | None = None, mismatch: Mismatch | None = None) -> "CampaignStore":
         """Take the store's exclusive lock or raise :class:`StoreLockedError`. With ``search_hash``,
         :meth:`check` runs first, so that a refused store is refused before its lock file is made;
         without it, only :meth:`check_folder`."""
         if search_hash is None:
             self.check_folder()
         else:
-            self.check(search_hash)
+            self.check(search_hash, mismatch)
         try:
             self.path.parent.mkdir(exist_ok=True)
             fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -237,12 +241,12 @@ class CampaignStore:
 
     # ------------------------------------------------------------------------- campaign level
     def initialise(self, search_hash: str, config: dict[str, Any], calibrax_version: str,
-                   experiment: Experiment | None = None) -> bool:
+                   experiment: Experiment | None = None, mismatch: Mismatch | None = None) -> bool:
         """Create the store for a config (with a copy of the experiment's data, so that the store
         alone can be reported on), or check that it belongs to it. True if it was created."""
         if self.path.exists():
             with self._read() as f:
-                self._check_belongs(f, search_hash)
+                self._check_belongs(f, search_hash, mismatch)
             return False
 
         def create(f: h5py.File) -> None:
@@ -259,16 +263,27 @@ class CampaignStore:
         self._mutate(create)
         return True
 
-    def _check_belongs(self, f: h5py.File, search_hash: str) -> None:
-        """Raise :class:`StoreError` unless the open store ``f`` is a calibrax store made for ``search_hash``."""
+    def _check_belongs(self, f: h5py.File, search_hash: str, mismatch: Mismatch | None = None) -> None:
+        """Raise :class:`StoreError` unless the open store ``f`` is a calibrax store made for
+        ``search_hash``. A store whose hash differs still belongs when ``mismatch`` (given its
+        stored config and experiment) finds nothing against it: a store written before the hash
+        ignored the experiment's path, resumed from another folder."""
         if f.attrs.get("format") != FORMAT:
             raise StoreError(f"store {self.path} is not a calibrax store (format {f.attrs.get('format')!r}); "
                              "give a new store path")
         stored = str(f.attrs.get("search_hash"))
-        if stored != search_hash:
-            raise StoreError(f"store {self.path} was made by a campaign with different settings "
-                             f"(search hash {stored} ≠ {search_hash}); give a new store path, or restore "
-                             "the campaign file it was made with (only budget, executor and paths may change)")
+        if stored == search_hash:
+            return
+        why = f"search hash {stored} ≠ {search_hash}"
+        if mismatch is not None:
+            config = json.loads(f.attrs.get("config", "{}"))
+            experiment = read_experiment_group(f["experiment"]) if "experiment" in f else None
+            why = mismatch(config, experiment)
+            if why is None:
+                return
+        raise StoreError(f"store {self.path} was made by a campaign with different settings ({why}); give a new "
+                         "store path, or restore the campaign file it was made with (only budget, executor and "
+                         "paths may change)")
 
     def config(self) -> dict[str, Any]:
         with self._read() as f:
