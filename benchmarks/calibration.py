@@ -34,7 +34,7 @@ spans ≥ 80 % of its range), and the overhead: seconds of model work per batch 
 acquisition optimisation and the answer's evaluation).
 
 Strategies: ``default`` (the campaign's default: qEI, q = 2, on the composite Kriging model of
-calibrax.core.composite, one GP per feature with the metric's seed spread as its noise prior, the
+calibrax.core.search.composite, one GP per feature with the metric's seed spread as its noise prior, the
 distance from their joint prediction, best_f from the expected distance at the evaluated points, the
 answer's recommendation), ``distance`` (qEI, q = 2, on the noise-aware log1p Kriging model of the
 distance itself, ``surrogate: {model: distance}``; the default before the composite model),
@@ -65,14 +65,14 @@ STEMS = ("peak_ratio", "preshear_ratio", "bulk_density")
 T_EXPERIMENT = 2.7955
 BOX = {"youngs_modulus": (5.0e9, 5.0e10, True), "sliding_friction": (0.1, 0.9, False)}
 STRATEGIES = ("default", "distance", "qei_plain", "qlogei", "qlognei", "sobol", "sobol_model", "random", "cma")
-#: the strategies whose model is the composite one (the campaign's default, calibrax.core.composite)
+#: the strategies whose model is the composite one (the campaign's default, calibrax.core.search.composite)
 COMPOSITE = ("default", "sobol_model")
-UNCONSTRAINED_SHARE = 0.8  # calibrax.core.answer's
+UNCONSTRAINED_SHARE = 0.8  # calibrax.core.search.answer's
 
 
 # ----------------------------------------------------------------------------- the surface
 def space():
-    from calibrax.core.parameters import Parameter, ParameterSpace
+    from calibrax.core.search.parameters import Parameter, ParameterSpace
 
     return ParameterSpace(tuple(Parameter(n, lo, hi, log=lg) for n, (lo, hi, lg) in BOX.items()))
 
@@ -99,7 +99,7 @@ class Surface:
 
     @classmethod
     def fit(cls, path: Path = DESIGN) -> "Surface":
-        from calibrax.core.surrogate import Kriging
+        from calibrax.core.search.surrogate import Kriging
 
         unit, feats, labels = load_design(path)
         models, sds, dof = {}, {}, 0
@@ -193,7 +193,7 @@ class Trace:
 
 
 def _model(x: np.ndarray, y: np.ndarray, threshold: float, plain: bool, seed: int):
-    from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
+    from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
 
     if plain:
         return Kriging.fit(x, y, seed=seed, transform="identity")
@@ -207,10 +207,10 @@ def _checkpoint(problem: Problem, n: int, rec: np.ndarray, claims: dict | None) 
 
 def run_strategy(name: str, problem: Problem, budget: int, q: int, initial: int, seed: int) -> Trace:
     """Calibrate against ``problem`` with ``budget`` simulations in batches of ``q``."""
-    from calibrax.core.acquisition import Observations
-    from calibrax.core.answer import answer_from_model
-    from calibrax.core.composite import CompositeKriging
-    from calibrax.core.design import sobol_points
+    from calibrax.core.search.acquisition import Observations
+    from calibrax.core.search.answer import answer_from_model
+    from calibrax.core.search.composite import CompositeKriging
+    from calibrax.core.search.design import sobol_points
     from calibrax.core.registry import get_manager
 
     sp = space()

@@ -49,7 +49,7 @@ def truth(target: int) -> dict[str, float]:
 
 def make_experiment(target: int, preset: str, folder: Path, workers: int) -> Path:
     """The target's pseudo-experiment (made once; kept on later runs)."""
-    from calibrax.core.pseudo import EXPERIMENT_SEED_BASE, write_pseudo_experiment
+    from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE, write_pseudo_experiment
     from calibrax.core.sheartest import ShearCellSpec
 
     out = folder / "experiment.yaml"
@@ -82,7 +82,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
     """(simulations, the recommendation on the unit cube) after each batch, from the store: the
     campaign's own answer on its first n points (Sobol: the best observation)."""
     from calibrax import CampaignStore
-    from calibrax.core.campaign import campaign_answer
+    from calibrax.core.studies.campaign import campaign_answer
 
     points = sorted(CampaignStore(config.store).points(), key=lambda p: p.id)
     done = [p for p in points if p.metric is not None and np.isfinite(p.metric.value)]

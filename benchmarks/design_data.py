@@ -23,7 +23,7 @@ COLUMNS = ("point", "youngs_modulus", "sliding_friction", "seed", "peak_ratio", 
 
 def _row(label: str, params: dict[str, float], result) -> dict[str, object]:
     from calibrax.plugins.builtin.metrics import RobustMetric
-    from calibrax.core.features import result_features
+    from calibrax.core.data.features import result_features
 
     f = RobustMetric._aggregate(result_features(result))
     row = {"point": label, "youngs_modulus": params["youngs_modulus"], "sliding_friction": params["sliding_friction"],
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import h5py
 
-    from calibrax.core.store import CampaignStore, read_result_group
+    from calibrax.core.running.store import CampaignStore, read_result_group
 
     rows = []
     for path in args.store:

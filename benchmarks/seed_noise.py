@@ -22,7 +22,7 @@ fluctuation), by an analysis of variance over seeds and steps (:func:`variance_s
 Material defaults to Table 1 of the reference paper. Each seed's whole result is saved in the
 --cache folder as it finishes, and a seed already there is not run again, so an interrupted run
 resumes and a second metric costs no simulation. --spread-out writes the seed spread of the robust metric's features as a YAML
-fragment for its ``seed_spread`` option. Seeds stay below calibrax.core.campaign.EXPERIMENT_SEED_BASE.
+fragment for its ``seed_spread`` option. Seeds stay below calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE.
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | 
     import h5py
 
     from calibrax import get_manager
-    from calibrax.core.store import write_result_group
+    from calibrax.core.running.store import write_result_group
 
     spec = _spec(args, seed, changes)
     with tempfile.TemporaryDirectory() as work:
@@ -141,7 +141,7 @@ def load_seed(folder: Path, seed: int, spec=None):
     import h5py
 
     from calibrax.core.sheartest import ShearTestResult
-    from calibrax.core.store import read_result_group
+    from calibrax.core.running.store import read_result_group
 
     with h5py.File(folder / f"seed_{seed}.h5", "r") as f:
         result = read_result_group(f["result"])
@@ -169,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.variant:
         return compare(args, _variants(args, p))
-    from calibrax.core.campaign import EXPERIMENT_SEED_BASE
+    from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
 
     seeds = _seeds(args.seeds)
     if max(seeds) >= EXPERIMENT_SEED_BASE:
@@ -184,12 +184,12 @@ def main(argv: list[str] | None = None) -> int:
         futures = [pool.submit(run_seed, args, s, folder) for s in todo]
         for fut in cf.as_completed(futures):
             print(f"seed {fut.result()} done", file=sys.stderr)
-    from calibrax.core.features import result_features
+    from calibrax.core.data.features import result_features
 
     results = [load_seed(folder, s, _spec(args, s)) for s in seeds]
     done = [{"features": result_features(r, spec.procedure.peak_window), "wall_s": r.provenance.wall_time,
              "base_slip": r.base_slip.tolist()} for r in results]
-    from calibrax.core.features import FEATURES, feature_def, summarise
+    from calibrax.core.data.features import FEATURES, feature_def, summarise
 
     summary = summarise(r["features"] for r in done)
     print(f"\n{args.simulator}, preset {args.preset}, material {args.set or 'Table 1'}, {len(done)} seeds "
@@ -252,7 +252,7 @@ def run_variant(args: argparse.Namespace, seeds: list[int], changes: dict) -> tu
 
 def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
     """The side-by-side table of ``--variant`` runs: seed s.d., CPU per test, s²·CPU."""
-    from calibrax.core.features import result_features, step_mean
+    from calibrax.core.data.features import result_features, step_mean
 
     seeds = _seeds(args.seeds)
     rows = []

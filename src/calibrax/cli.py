@@ -179,7 +179,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from calibrax.core.campaign import run_campaign
+    from calibrax.core.studies.campaign import run_campaign
     from calibrax.core.config import load_config
     from calibrax.errors import ConfigError
 
@@ -202,7 +202,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"campaign {config.name}: {summary.points} points, {summary.done} done, {summary.failed} failed; "
           f"store {summary.store}")
     if summary.answer is not None:
-        from calibrax.core.answer import Answer
+        from calibrax.core.search.answer import Answer
 
         print(f"answer: {Answer.from_dict(summary.answer).summary()}")
     if summary.best_id is not None:
@@ -215,7 +215,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _print_check(config) -> None:
     """``run --check``: the resolved settings, the cell, the experiment and the store, all checked as a
     run checks them; nothing is run or written."""
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.running.store import CampaignStore
 
     exists = CampaignStore(config.store).check(config.search_hash(), config.store_mismatch)
     spec = config.spec
@@ -242,8 +242,8 @@ def _print_check(config) -> None:
 
 
 def _cmd_status(args: argparse.Namespace) -> int:
-    from calibrax.core.campaign import Campaign
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.studies.campaign import Campaign
+    from calibrax.core.running.store import CampaignStore
 
     store = CampaignStore(args.store)
     points = store.points()
@@ -264,7 +264,7 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.running.store import CampaignStore
     from calibrax.report.trials import write_trials_csv
 
     store = CampaignStore(args.store)
@@ -305,9 +305,9 @@ def _study_executor(args: argparse.Namespace, config):
 
 
 def _cmd_crosscheck(args: argparse.Namespace) -> int:
-    from calibrax.core.crosscheck import (agreements, crosscheck_cases, known_differences, micro_agreement,
+    from calibrax.core.studies.crosscheck import (agreements, crosscheck_cases, known_differences, micro_agreement,
                                           micro_checks, micro_material, parse_point)
-    from calibrax.core.study import run_study
+    from calibrax.core.studies.study import run_study
     from calibrax.errors import ConfigError
     from calibrax.report.studies import crosscheck_figure, crosscheck_markdown
 
@@ -351,8 +351,8 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
 
 
 def _cmd_converge(args: argparse.Namespace) -> int:
-    from calibrax.core.convergence import converge_cases, verdicts
-    from calibrax.core.study import run_study
+    from calibrax.core.studies.convergence import converge_cases, verdicts
+    from calibrax.core.studies.study import run_study
     from calibrax.errors import ConfigError, PluginError
     from calibrax.core.registry import get_manager
     from calibrax.report.studies import converge_figure, converge_markdown

@@ -1,5 +1,5 @@
 """TEST DOUBLE — a plugin written the way a third party would, from the declared interfaces alone
-(:mod:`calibrax.core.verification` and :class:`calibrax.core.metric.TermsMetric`), for tests of the
+(:mod:`calibrax.core.sheartest.verification` and :class:`calibrax.core.search.metric.TermsMetric`), for tests of the
 core only. Registered through ``CALIBRAX_PLUGINS`` beside the analytic double (tests/conftest.py):
 
 * ``AnalyticDoubleVerification``: the analytic double's micro cases, answered by the analytic
@@ -16,10 +16,10 @@ import math
 import numpy as np
 
 from calibrax import hookimpl
-from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_time
-from calibrax.core.experiment import Experiment
-from calibrax.core.metric import DistanceTerm, MetricValue
-from calibrax.core.verification import MicroMaterial
+from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_time
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.metric import DistanceTerm, MetricValue
+from calibrax.core.sheartest.verification import MicroMaterial
 
 
 class AnalyticDoubleVerification:

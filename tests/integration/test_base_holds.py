@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from calibrax import ShearCellSpec
-from calibrax.core.features import result_features, step_mean
+from calibrax.core.data.features import result_features, step_mean
 from calibrax.core.sheartest import BASE_SPIN_SLIP_FRACTION
 from tests.bank import declare_short, declare_tiny
 

@@ -14,8 +14,8 @@ import pytest
 import yaml
 
 from calibrax.cli import main
-from calibrax.core.crosscheck import MICRO_CASES, MICRO_TOLERANCE, micro_agreement
-from calibrax.core.store import CampaignStore
+from calibrax.core.studies.crosscheck import MICRO_CASES, MICRO_TOLERANCE, micro_agreement
+from calibrax.core.running.store import CampaignStore
 from tests.conftest import ROOT, calibrax_cli, write_double_campaign
 
 #: YADE first: it is by far the slowest here (minutes), so with two workers it runs from the start

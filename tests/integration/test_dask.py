@@ -27,7 +27,7 @@ def _kill_worker_of_first_simulation(proc: subprocess.Popen, after_s: float, dea
     while time.monotonic() < deadline and proc.poll() is None:
         for child in psutil.Process(proc.pid).children(recursive=True):
             try:
-                if "calibrax.core.isolate" in " ".join(child.cmdline()):
+                if "calibrax.core.running.isolate" in " ".join(child.cmdline()):
                     time.sleep(after_s)  # mid-simulation
                     worker = child.parent()
                     task = child.cmdline()[-3]
@@ -78,7 +78,7 @@ def test_worker_killed_mid_simulation_campaign_still_finishes(tmp_path):
     while killed is None and time.monotonic() < deadline and proc.poll() is None:
         for child in psutil.Process(proc.pid).children(recursive=True):
             try:
-                if "calibrax.core.isolate" in " ".join(child.cmdline()):
+                if "calibrax.core.running.isolate" in " ".join(child.cmdline()):
                     time.sleep(1.0)  # mid-simulation
                     worker = child.parent()
                     killed = (worker.pid, " ".join(child.cmdline()))

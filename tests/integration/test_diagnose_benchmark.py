@@ -105,7 +105,7 @@ def test_labels_naming_a_missing_case_exit_2(tmp_path, capsys):
 def test_blinded_files_read_back_and_tell_nothing(bank, tmp_path, job):
     """A case written blind from a real engine's result is an ordinary experiment whose header names
     the cell but not the backend, the material or the walls' friction; the noise is on top."""
-    from calibrax.core.experiment import load_experiment
+    from calibrax.core.data.experiment import load_experiment
     from calibrax.diagnosis import gap as gaps
 
     result, spec = bank.result(job), JOBS[job].spec

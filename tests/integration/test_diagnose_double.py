@@ -27,7 +27,7 @@ def campaign(tmp_path_factory, request) -> Path:
     """A finished double campaign against a pseudo-experiment made with wall friction 0.3."""
     import os
 
-    from calibrax.core.pseudo import write_pseudo_experiment
+    from calibrax.core.data.pseudo import write_pseudo_experiment
 
     folder = tmp_path_factory.mktemp("diagnose-double")
     spec = ShearCellSpec.preset("tiny", material={"youngs_modulus": 2e10, "sliding_friction": 0.45},

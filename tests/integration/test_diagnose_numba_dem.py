@@ -22,10 +22,10 @@ from pathlib import Path
 import pytest
 
 from calibrax import ShearCellSpec
-from calibrax.core.executor import LocalExecutor
-from calibrax.core.experiment import load_experiment
-from calibrax.core.parameters import ParameterSpace
-from calibrax.core.pseudo import write_pseudo_experiment
+from calibrax.core.running.executor import LocalExecutor
+from calibrax.core.data.experiment import load_experiment
+from calibrax.core.search.parameters import ParameterSpace
+from calibrax.core.data.pseudo import write_pseudo_experiment
 from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
 from calibrax.diagnosis.gap import gap_size
 

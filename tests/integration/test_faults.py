@@ -15,7 +15,7 @@ import psutil
 import pytest
 
 from calibrax import CampaignStore, load_config, run_campaign
-from calibrax.core.campaign import DUPLICATE_TOL
+from calibrax.core.studies.campaign import DUPLICATE_TOL
 from tests.conftest import ROOT, double_env, write_double_campaign
 
 
@@ -41,7 +41,7 @@ def test_fault_is_recorded_and_campaign_goes_on(tmp_path, monkeypatch, fault, ki
         assert sim.kind == kind and reason in sim.reason
     assert all(p.status == "done" for p in points if p.params()["sliding_friction"] <= 0.6)
     # no simulation process outlives the campaign
-    assert not [c for c in psutil.Process().children(recursive=True) if "calibrax.core.isolate" in " ".join(c.cmdline())]
+    assert not [c for c in psutil.Process().children(recursive=True) if "calibrax.core.running.isolate" in " ".join(c.cmdline())]
 
 
 def test_failed_points_are_penalised_and_never_proposed_again(tmp_path, monkeypatch):

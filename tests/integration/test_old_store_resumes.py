@@ -9,10 +9,10 @@ from pathlib import Path
 
 import yaml
 
-from calibrax.core.composite import CompositeKriging
+from calibrax.core.search.composite import CompositeKriging
 from calibrax.core.config import load_config
-from calibrax.core.search import fit_distance_model
-from calibrax.core.store import CampaignStore
+from calibrax.core.search.points import fit_distance_model
+from calibrax.core.running.store import CampaignStore
 from tests.conftest import calibrax_cli
 
 OLD = Path(__file__).resolve().parents[1] / "data" / "store-c6375eb"

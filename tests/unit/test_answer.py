@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calibrax.core.answer import Answer, answer_from_model
-from calibrax.core.parameters import Parameter, ParameterSpace
-from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
+from calibrax.core.search.answer import Answer, answer_from_model
+from calibrax.core.search.parameters import Parameter, ParameterSpace
+from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
 
 SPACE = ParameterSpace((Parameter("youngs_modulus", 5e9, 5e10, log=True), Parameter("sliding_friction", 0.1, 0.9)))
 THRESHOLD = 3.0
@@ -118,7 +118,7 @@ def _at(e: float, mu: float, share: float) -> Answer:
 
 
 def test_the_stopping_rule_waits_for_patience_settled_batches():
-    from calibrax.core.campaign import settled
+    from calibrax.core.studies.campaign import settled
 
     moving = [_at(2e10, 0.30, 0.5), _at(2e10, 0.40, 0.5), _at(2e10, 0.401, 0.5), _at(2e10, 0.402, 0.505)]
     assert not settled(moving, SPACE, 0)  # patience 0: never stop

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from calibrax.cli import main
-from calibrax.core.store import CampaignStore
+from calibrax.core.running.store import CampaignStore
 from tests.conftest import write_double_campaign as write_campaign
 
 

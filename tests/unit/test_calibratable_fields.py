@@ -1,4 +1,4 @@
-"""The one registry of calibratable parameters (calibrax.core.parameters.FIELDS) against the spec."""
+"""The one registry of calibratable parameters (calibrax.core.search.parameters.FIELDS) against the spec."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 def test_every_calibratable_parameter_is_a_material_field_with_its_display():
     import dataclasses
 
-    from calibrax.core.parameters import CALIBRATABLE, DISPLAY, FIELDS, UNITS
+    from calibrax.core.search.parameters import CALIBRATABLE, DISPLAY, FIELDS, UNITS
     from calibrax.core.sheartest import Material
 
     material = {f.name for f in dataclasses.fields(Material)}

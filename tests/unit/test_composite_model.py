@@ -10,12 +10,12 @@ import math
 import numpy as np
 import pytest
 
-from calibrax.core.answer import answer_from_model
-from calibrax.core.composite import CompositeKriging, composite_ready
-from calibrax.core.metric import DistanceTerm, MetricValue
-from calibrax.core.parameters import Parameter, ParameterSpace
+from calibrax.core.search.answer import answer_from_model
+from calibrax.core.search.composite import CompositeKriging, composite_ready
+from calibrax.core.search.metric import DistanceTerm, MetricValue
+from calibrax.core.search.parameters import Parameter, ParameterSpace
 from calibrax.plugins.builtin.acquisitions import QExpectedImprovement, QLogNoisyExpectedImprovement
-from calibrax.core.acquisition import Observations
+from calibrax.core.search.acquisition import Observations
 
 SPACE = ParameterSpace((Parameter("youngs_modulus", 5e9, 5e10, log=True), Parameter("sliding_friction", 0.1, 0.9)))
 #: two features linear in μs (u₁), blind to E (u₀); the experiment sits at u₁ = 0.3

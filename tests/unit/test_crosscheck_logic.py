@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from calibrax.core.sheartest import Provenance, ShearCellSpec, ShearTestResult, StepRecord
-from calibrax.core.study import shear_window_diagnostics
+from calibrax.core.studies.study import shear_window_diagnostics
 
-from calibrax.core.convergence import DENSITY_TOLERANCE, KNOBS, OPTIONS, within_finest
-from calibrax.core.crosscheck import MICRO_TOLERANCE, micro_agreement, micro_errors
+from calibrax.core.studies.convergence import DENSITY_TOLERANCE, KNOBS, OPTIONS, within_finest
+from calibrax.core.studies.crosscheck import MICRO_TOLERANCE, micro_agreement, micro_errors
 
 
 def rows_by_quantity(rows):

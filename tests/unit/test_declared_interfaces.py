@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import math
 
-from calibrax.core.composite import CompositeKriging
+from calibrax.core.search.composite import CompositeKriging
 from calibrax.core.config import load_config
-from calibrax.core.crosscheck import known_differences, micro_agreement, micro_checks
-from calibrax.core.metric import TermsMetric
+from calibrax.core.studies.crosscheck import known_differences, micro_agreement, micro_checks
+from calibrax.core.search.metric import TermsMetric
 from calibrax.core.registry import get_manager
-from calibrax.core.search import fit_distance_model
-from calibrax.core.store import CampaignStore
-from calibrax.core.verification import MICRO_CASES, Verification
+from calibrax.core.search.points import fit_distance_model
+from calibrax.core.running.store import CampaignStore
+from calibrax.core.sheartest.verification import MICRO_CASES, Verification
 from tests.conftest import write_double_campaign
 from tests.doubles.thirdparty_plugin import AnalyticDoubleVerification, PeakRatioTermsMetric
 
@@ -44,7 +44,7 @@ def test_the_composite_model_fits_the_terms_the_metric_states(tmp_path):
     path = write_double_campaign(tmp_path, metric="double_terms", surrogate={"model": "composite"},
                                  budget={"initial": 4, "iterations": 0}, executor={"name": "local", "workers": 2})
     config = load_config(path)  # a TermsMetric is accepted for the composite model
-    from calibrax.core.campaign import run_campaign
+    from calibrax.core.studies.campaign import run_campaign
 
     run_campaign(config)
     points = CampaignStore(config.store).points()

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from calibrax import ShearCellSpec
-from calibrax.core.experiment import Experiment
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.parameters import ParameterSpace
 from calibrax.diagnosis import effects_by_name
 from calibrax.diagnosis.design import MIN_HALF_WIDTH, Box, Budget, design_points
 from calibrax.diagnosis.effects import TruncatedNormalPrior, UniformPrior

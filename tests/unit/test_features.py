@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from calibrax.core.experiment import Experiment
-from calibrax.core.features import (FEATURES, curve_shape, experiment_features, feature_def, result_features,
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.data.features import (FEATURES, curve_shape, experiment_features, feature_def, result_features,
                                     step_suffix, summarise)
 from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
 

@@ -88,7 +88,7 @@ normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,preshe
 
 
 def test_what_an_ft4_user_can_also_measure_is_read_and_kept(tmp_path):
-    from calibrax.core.store import read_experiment_group, write_experiment_group
+    from calibrax.core.running.store import read_experiment_group, write_experiment_group
     import h5py
 
     (tmp_path / "p.csv").write_text(FULL_POINTS)
@@ -142,7 +142,7 @@ def test_bad_header_values_name_the_key(tmp_path, header, key):
 
 def test_logs_and_status_show_the_features_the_metric_compared():
     """c_aif shows C and AIF; robust its averaged τ/σ and the density (not NaN C and AIF)."""
-    from calibrax.core.metric import describe_simulated, simulated_features
+    from calibrax.core.search.metric import describe_simulated, simulated_features
 
     assert describe_simulated({"cohesion_sim": 1234.4, "aif_sim": 31.04, "scale_aif": 2.0}) == "C = 1234 Pa, AIF = 31.0°"
     robust = {"peak_ratio_sim": 0.8421, "preshear_ratio_sim": 0.7, "bulk_density_sim": 1480.2, "peak_ratio_exp": 0.9}

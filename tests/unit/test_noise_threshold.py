@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from calibrax.core.experiment import Experiment
-from calibrax.core.threshold import noise_threshold, welch_dof
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.threshold import noise_threshold, welch_dof
 from calibrax.plugins.builtin.metrics import CAifMetric, RobustMetric
 
 
@@ -58,7 +58,7 @@ def test_c_aif_threshold_counts_replicates_seeds_and_the_loci_correlation():
 
 
 def test_robust_metric_scales_by_the_combined_spread_and_states_its_threshold():
-    from calibrax.core.features import experiment_features, summarise
+    from calibrax.core.data.features import experiment_features, summarise
 
     rng = np.random.default_rng(1)
     exp = _experiment(4, rng)

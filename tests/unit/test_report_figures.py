@@ -45,7 +45,7 @@ def _data(n_points: int):
     """CampaignData with ``n_points`` finished points over (E, μs) on the tiny cell (hand-made)."""
     from types import SimpleNamespace
 
-    from calibrax.core.parameters import Parameter, ParameterSpace
+    from calibrax.core.search.parameters import Parameter, ParameterSpace
     from calibrax.report.data import CampaignData, PointView
 
     space = ParameterSpace((Parameter("youngs_modulus", 5e9, 5e10, log=True), Parameter("sliding_friction", 0.1, 0.9)))
@@ -54,7 +54,7 @@ def _data(n_points: int):
 
 
 def _answer(ranges: dict, share: float):
-    from calibrax.core.answer import Answer
+    from calibrax.core.search.answer import Answer
 
     names = ("youngs_modulus", "sliding_friction")
     return Answer(params={"youngs_modulus": 2e10, "sliding_friction": 0.35}, predicted=1.2, predicted_sd=0.4,

@@ -9,8 +9,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from calibrax.core.executor import SimulationTask
-from calibrax.core.scheduler import Scheduler
+from calibrax.core.running.executor import SimulationTask
+from calibrax.core.running.scheduler import Scheduler
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.errors import SimulationFailed
 

@@ -144,7 +144,7 @@ def test_a_bed_sliding_on_its_base_is_flagged_and_one_held_by_it_is_not():
 
 
 def test_with_base_ribs_no_particle_starts_inside_a_rib():
-    from calibrax.core.packing import initial_packing
+    from calibrax.core.sheartest.packing import initial_packing
 
     spec = ShearCellSpec.preset("tiny")
     assert spec.geometry.base_ribs == 8  # the default base

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrax.core.campaign import simulation_workdir
-from calibrax.core.executor import ATTEMPTS_LOG
-from calibrax.core.store import CampaignStore
+from calibrax.core.studies.campaign import simulation_workdir
+from calibrax.core.running.executor import ATTEMPTS_LOG
+from calibrax.core.running.store import CampaignStore
 from calibrax.report.status import status_text
 
 NAMES = ["youngs_modulus", "sliding_friction"]

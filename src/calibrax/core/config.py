@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from calibrax.core.experiment import Experiment, experiment_fingerprint, load_experiment
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.data.experiment import Experiment, experiment_fingerprint, load_experiment
+from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
 from calibrax.core.yamlfile import read_yaml
@@ -49,7 +49,7 @@ ROOT_KEYS = {
 #: spec fields added after stores existed, with their defaults: left out of the search hash while
 #: they hold them, so that a store made before the field existed still resumes
 ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None}
-#: the Kriging model's options and their defaults (calibrax.core.surrogate)
+#: the Kriging model's options and their defaults (calibrax.core.search.surrogate)
 SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),
                      "noise": ("metric", "fitted")}
@@ -118,7 +118,7 @@ class CampaignConfig:
 def search_identity(resolved: dict[str, Any], experiment: Experiment | None) -> str:
     """Hash of what defines a search: the resolved config without budget, executor, paths, names,
     the surrogate's options and the enqueued or warm-start points (stored points are data whatever
-    proposed them), and the experiment by its data (:func:`~calibrax.core.experiment.experiment_fingerprint`)."""
+    proposed them), and the experiment by its data (:func:`~calibrax.core.data.experiment.experiment_fingerprint`)."""
     keep = {k: v for k, v in resolved.items() if k not in ("budget", "executor", "store", "workdir", "description",
                                                            "name", "surrogate", "enqueue", "warm_start", "experiment")}
     keep = _without_added_defaults(keep)
@@ -257,7 +257,7 @@ def _comparable_cell(cell: dict[str, Any], names: tuple[str, ...]) -> dict[str, 
 def check_warm_start(path: Path, resolved: dict[str, Any], space: ParameterSpace) -> None:
     """``warm_start`` must be a calibrax store made with the same simulator, cell (calibrated values
     and seed aside) and calibrated parameters; ConfigError naming what differs otherwise."""
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.running.store import CampaignStore
     from calibrax.errors import StoreError
 
     if not path.is_file():
@@ -430,7 +430,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     enqueue = _enqueued(raw.get("enqueue", []), space)
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
     # Build the plugins once so their own option checks run now, not mid-campaign.
-    from calibrax.core.metric import TermsMetric
+    from calibrax.core.search.metric import TermsMetric
     from calibrax.core.registry import get_manager
     from calibrax.core.simulator import check_capabilities
 
@@ -447,7 +447,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         asked = isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite"
         if asked and not isinstance(metric_obj, TermsMetric):  # by default: the distance model stands in
             raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
-                              f"(calibrax.core.metric.TermsMetric); metric {metric!r} does not: use model: "
+                              f"(calibrax.core.search.metric.TermsMetric); metric {metric!r} does not: use model: "
                               "distance, or the metric c_aif or robust")
         check_capabilities(manager.create("simulator", simulator), spec)
     except PluginError as exc:

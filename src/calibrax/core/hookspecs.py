@@ -25,22 +25,22 @@ def calibrax_simulators() -> list[type]:
 
 @hookspec
 def calibrax_metrics() -> list[type]:
-    """Metric classes (see :class:`calibrax.core.metric.Metric`), built with the metric's options."""
+    """Metric classes (see :class:`calibrax.core.search.metric.Metric`), built with the metric's options."""
 
 
 @hookspec
 def calibrax_acquisitions() -> list[type]:
-    """Acquisition classes (see :class:`calibrax.core.acquisition.Acquisition`)."""
+    """Acquisition classes (see :class:`calibrax.core.search.acquisition.Acquisition`)."""
 
 
 @hookspec
 def calibrax_executors() -> list[type]:
-    """Executor classes (see :class:`calibrax.core.executor.Executor`)."""
+    """Executor classes (see :class:`calibrax.core.running.executor.Executor`)."""
 
 
 @hookspec
 def calibrax_verifications() -> list[type]:
-    """Verification classes (see :class:`calibrax.core.verification.Verification`): a backend's
+    """Verification classes (see :class:`calibrax.core.sheartest.verification.Verification`): a backend's
     analytic checks, each class named after the simulator it verifies, built with no arguments."""
 
 

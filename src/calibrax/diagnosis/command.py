@@ -54,7 +54,7 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
 
 
 def _executor_settings(store: Path) -> tuple[str, dict]:
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.running.store import CampaignStore
 
     cfg = CampaignStore(store).config().get("executor") or {"name": "local", "workers": 1}
     return cfg.get("name", "local"), {k: v for k, v in cfg.items() if k != "name"}

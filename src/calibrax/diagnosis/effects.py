@@ -27,7 +27,7 @@ import numpy as np
 from calibrax.core.hookspecs import hookimpl
 
 if TYPE_CHECKING:  # pragma: no cover
-    from calibrax.core.experiment import Experiment
+    from calibrax.core.data.experiment import Experiment
     from calibrax.core.sheartest import ShearCellSpec
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrax.core.features import experiment_features, result_features, step_mean
+from calibrax.core.data.features import experiment_features, result_features, step_mean
 
 #: the feature groups: the yield locus (peak τ/σ per step), the packing (bulk density, the FT4's
 #: compressibility test), steady flow (preshear and post-peak τ/σ) and the curves' shape; the
@@ -49,7 +49,7 @@ STEP_MEANS = ("preshear_ratio", "shear_end_ratio", "initial_slope", "peak_promin
 
 
 def diagnosis_features(features: dict[str, float]) -> dict[str, float]:
-    """The diagnosis's features from one test's :func:`~calibrax.core.features.result_features` (or
+    """The diagnosis's features from one test's :func:`~calibrax.core.data.features.result_features` (or
     one replicate's experiment features): the per-step peak τ/σ as they are, the stems of
     :data:`STEP_MEANS` averaged over the steps, and the bulk density."""
     out = {k: v for k, v in features.items() if k.startswith("peak_ratio_")}

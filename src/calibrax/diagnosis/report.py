@@ -171,7 +171,7 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
 
 
 def _curves(d: Diagnosis, calibrated: Calibrated, out: Path, plt, save) -> list[str]:
-    from calibrax.core.store import CampaignStore
+    from calibrax.core.running.store import CampaignStore
 
     def results(path: Path) -> list:
         if not path.is_file():

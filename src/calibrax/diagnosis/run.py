@@ -30,11 +30,11 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.campaign import point_spec
-from calibrax.core.experiment import Experiment
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.studies.campaign import point_spec
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.core.study import StudyCase, run_study
+from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points
 from calibrax.diagnosis.effects import Effect, EffectParameter
@@ -71,8 +71,8 @@ class Calibrated:
     @classmethod
     def from_store(cls, path: Path) -> "Calibrated":
         """The campaign of a store: its config, experiment and answer (the recommendation)."""
-        from calibrax.core.campaign import load_answer
-        from calibrax.core.store import CampaignStore
+        from calibrax.core.studies.campaign import load_answer
+        from calibrax.core.running.store import CampaignStore
 
         path = Path(path)
         if not path.is_file():
@@ -293,8 +293,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
 def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:
     """The store of a diagnosis's study: ``kind-<hash of its cases>.h5`` (``kind.h5`` where an
     earlier version wrote that name for the same cases)."""
-    from calibrax.core.store import CampaignStore
-    from calibrax.core.study import study_hash
+    from calibrax.core.running.store import CampaignStore
+    from calibrax.core.studies.study import study_hash
 
     digest = study_hash(cases)
     legacy = out / f"{kind}.h5"

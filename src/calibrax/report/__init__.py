@@ -7,7 +7,7 @@ import html
 import math
 from pathlib import Path
 
-from calibrax.core.campaign import noise_text
+from calibrax.core.studies.campaign import noise_text
 from calibrax.report import figures
 from calibrax.report.data import CampaignData, load_campaign
 

@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrax.core.experiment import Experiment
-from calibrax.core.parameters import Parameter, ParameterSpace
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.parameters import Parameter, ParameterSpace
 from calibrax.core.sheartest import ShearTestResult
-from calibrax.core.store import CampaignStore, PointRecord
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.running.store import CampaignStore, PointRecord
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError, StoreError
 
 

@@ -15,8 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from calibrax.core.parameters import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
-from calibrax.core.surrogate import Kriging  # noqa: E402
+from calibrax.core.search.parameters import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
+from calibrax.core.search.surrogate import Kriging  # noqa: E402
 from calibrax.report.data import CampaignData  # noqa: E402
 
 
@@ -198,9 +198,9 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     """Predicted distance and its standard deviation over the first two parameters (the others at
     the recommendation), with every evaluated point, the last batch's proposals, the answer's
     recommendation and the edge of its plausible region; returns the file names and the answer's
-    statement (:mod:`calibrax.core.answer`) with what would narrow it."""
-    from calibrax.core.answer import REGION_SIGMAS, answer_from_model
-    from calibrax.core.campaign import fit_distance_model
+    statement (:mod:`calibrax.core.search.answer`) with what would narrow it."""
+    from calibrax.core.search.answer import REGION_SIGMAS, answer_from_model
+    from calibrax.core.studies.campaign import fit_distance_model
     from calibrax.core.config import SURROGATE_DEFAULTS
 
     done = data.done
@@ -301,7 +301,7 @@ def _cell_words(data: CampaignData) -> str:
 
 
 def _identifiability(data: CampaignData, answer) -> str:
-    """The answer's statement (:meth:`calibrax.core.answer.Answer.summary`) and what would narrow it:
+    """The answer's statement (:meth:`calibrax.core.search.answer.Answer.summary`) and what would narrow it:
     when the plausible region is most of the box, more replicates, more seeds or a less noisy
     preset (more points alone do not); when it is empty, whether the surrogate has too few points
     to say so yet."""

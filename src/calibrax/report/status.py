@@ -11,11 +11,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from calibrax.core.campaign import Campaign, simulation_workdir
-from calibrax.core.executor import ATTEMPTS_LOG
-from calibrax.core.metric import SIMULATED_FEATURES, simulated_features
-from calibrax.core.parameters import UNITS
-from calibrax.core.store import CampaignStore, PointRecord
+from calibrax.core.studies.campaign import Campaign, simulation_workdir
+from calibrax.core.running.executor import ATTEMPTS_LOG
+from calibrax.core.search.metric import SIMULATED_FEATURES, simulated_features
+from calibrax.core.search.parameters import UNITS
+from calibrax.core.running.store import CampaignStore, PointRecord
 
 #: display name and unit of the metric's features named ``<stem>_exp`` (others: the stem, no unit)
 FEATURE_LABELS = {"cohesion": ("C", " Pa"), "aif": ("AIF", "°"), "bulk_density": ("bulk density", " kg/m³")}
@@ -98,7 +98,7 @@ def status_text(store: CampaignStore) -> str:
     if counts["interrupted"]:
         lines.append("interrupted simulations run again when the campaign is run again (calibrax run CAMPAIGN.yaml)")
     if summary.answer is not None:
-        from calibrax.core.answer import Answer
+        from calibrax.core.search.answer import Answer
 
         lines.append(f"answer: {Answer.from_dict(summary.answer).summary()}")
     if summary.best_id is not None:

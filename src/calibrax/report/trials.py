@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.campaign import Campaign
-from calibrax.core.parameters import UNITS
-from calibrax.core.store import CampaignStore
+from calibrax.core.studies.campaign import Campaign
+from calibrax.core.search.parameters import UNITS
+from calibrax.core.running.store import CampaignStore
 from calibrax.errors import StoreError
 from calibrax.report.status import point_state
 

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.packing import initial_packing
-from calibrax.core.servo import servo_gains
+from calibrax.core.sheartest.packing import initial_packing
+from calibrax.core.sheartest.servo import servo_gains
 from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY,
                                      INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, POUR_FRICTION, POUR_GRAVITY,
                                      POUR_SPEED, UNLOAD_MAX_ROTATION, ShearCellSpec, base_layer_bounds,
@@ -165,7 +165,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     e = num(m.restitution, "material.restitution")
 
     # ---------------------------------------------------------------- servo
-    # numba_dem's dynamic head (``calibrax.core.servo``). It replaced a kinematic PI servo
+    # numba_dem's dynamic head (``calibrax.core.sheartest.servo``). It replaced a kinematic PI servo
     # (v = K_p e + K_i ∫e): the blades' friction reverses with the head's motion, so the force that
     # servo read depended on the direction it moved the head; it chattered, its integral wound up and,
     # at μr ≤ 0.1 on the quick cell, lifted the head off the bed in the first preshear
@@ -316,7 +316,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add("jump SELF approach")
     add("label approached")
     # the head as a rigid body of mass M under the target load, with a damper on v − v_ref (numba_dem's
-    # and YADE's servo, calibrax.core.servo), integrated in closed form from the contact (t = 0, v = v0):
+    # and YADE's servo, calibrax.core.sheartest.servo), integrated in closed form from the contact (t = 0, v = v0):
     #   M (v − v0) = ∫(F − F*) dt − c (Δz − ∫v_ref dt),
     # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
     # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v

@@ -13,8 +13,8 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.verification import FunctionVerification
-from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
+from calibrax.core.sheartest.verification import FunctionVerification
+from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from . import mesh as meshes
 from .script import integer, num
@@ -166,7 +166,7 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
 
 
 class LiggghtsVerification(FunctionVerification):
-    """liggghts's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+    """liggghts's analytic checks for the crosscheck (:class:`calibrax.core.sheartest.verification.Verification`)."""
 
     name = "liggghts"
     known_differences = {}

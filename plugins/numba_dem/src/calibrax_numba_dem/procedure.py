@@ -15,8 +15,8 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from calibrax.core.packing import initial_packing
-from calibrax.core.servo import servo_gains
+from calibrax.core.sheartest.packing import initial_packing
+from calibrax.core.sheartest.servo import servo_gains
 from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, CONSOLIDATION_LIMIT_FACTOR, GRAVITY,
                                      INSERTION_FRICTION, INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII,
                                      MAX_SPEED, POUR_FRICTION, POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION,

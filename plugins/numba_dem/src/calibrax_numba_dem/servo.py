@@ -22,7 +22,7 @@ c = 2√(k M) and τ_ref = q · 2π√(M/k), c τ_ref = 4πq M, so the bias is (
 gains therefore use a light head (a quarter of the bed's mass) and q = 1 period (was: the bed's
 mass and five periods, 19 times the bias; preshear windows of ``quick`` ran 6–9 % above target).
 The damper still acts on the head–bed resonance (its high-pass passes 99 % at the resonance).
-The gains are computed by :func:`calibrax.core.servo.servo_gains`, shared with LIGGGHTS.
+The gains are computed by :func:`calibrax.core.sheartest.servo.servo_gains`, shared with LIGGGHTS.
 """
 
 from __future__ import annotations

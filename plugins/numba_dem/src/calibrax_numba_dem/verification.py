@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from calibrax.core.verification import FunctionVerification
-from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
+from calibrax.core.sheartest.verification import FunctionVerification
+from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params, numba_threads
@@ -131,7 +131,7 @@ def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius
     ``base_force`` (N, time-averaged over the last ``average_time``), ``weight`` (N, Σ m g) and
     ``kinetic_energy`` (J, at the end).
     """
-    from calibrax.core.packing import lattice_column
+    from calibrax.core.sheartest.packing import lattice_column
 
     rc = 0.5 * cell_diameters * 2.0 * radius
     rng = np.random.default_rng(seed)
@@ -168,7 +168,7 @@ resting_bed_base_load = _threaded(_resting_bed_base_load)
 
 
 class NumbaDEMVerification(FunctionVerification):
-    """numba_dem's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+    """numba_dem's analytic checks for the crosscheck (:class:`calibrax.core.sheartest.verification.Verification`)."""
 
     name = "numba_dem"
     known_differences = {}

@@ -15,7 +15,7 @@ meshes (``calibrax_liggghts.mesh``), so that the three backends simulate the sam
 YADE facets are two-sided, so blades and ribs are single plates (two triangles each). All
 triangles are returned as arrays of shape (n, 3, 3), m.
 
-The initial packing is the core's (:func:`calibrax.core.packing.initial_packing`), shared by all
+The initial packing is the core's (:func:`calibrax.core.sheartest.packing.initial_packing`), shared by all
 backends: same spec and seed → the same particles as numba_dem and LIGGGHTS.
 """
 

@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.packing import initial_packing
+from calibrax.core.sheartest.packing import initial_packing
 from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY,
                                      INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, MAX_SPEED, POUR_FRICTION,
                                      POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, Provenance,

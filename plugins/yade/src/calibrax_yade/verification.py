@@ -15,8 +15,8 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.verification import FunctionVerification
-from calibrax.core.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
+from calibrax.core.sheartest.verification import FunctionVerification
+from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 from calibrax.core.sheartest import Material, ShearCellSpec
 from calibrax.errors import SimulationFailed
 
@@ -252,7 +252,7 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
 
 
 class YadeVerification(FunctionVerification):
-    """yade's analytic checks for the crosscheck (:class:`calibrax.core.verification.Verification`)."""
+    """yade's analytic checks for the crosscheck (:class:`calibrax.core.sheartest.verification.Verification`)."""
 
     name = "yade"
     known_differences = KNOWN_DIFFERENCES

@@ -15,6 +15,12 @@ The package is split by job, and every public name is importable from here:
 * :mod:`~calibrax.core.sheartest.physics`: Δt_crit, τ from torque, the inertial number, the base;
 * :mod:`~calibrax.core.sheartest.peaks`: the preshear's steady part and a shear step's peak;
 * :mod:`~calibrax.core.sheartest.result`: the result type, its peaks, warnings and failures.
+* :mod:`~calibrax.core.sheartest.yieldlocus`: the yield locus and its Mohr analysis;
+* :mod:`~calibrax.core.sheartest.packing`, :mod:`~calibrax.core.sheartest.servo`: the initial
+  packing and the head's servo gains every backend starts from;
+* :mod:`~calibrax.core.sheartest.facets`: radial plates for backends with mesh walls;
+* :mod:`~calibrax.core.sheartest.analytic`, :mod:`~calibrax.core.sheartest.verification`: the
+  analytic references of the contact law and the contract of a backend's checks against them.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, 
                                             CONSOLIDATION_LIMIT_ROTATION, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
                                             INSERTION_TIME_FACTOR, INSERTION_TOLERANCE_RADII, MAX_SPEED, POUR_FRICTION,
                                             POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, insertion_time_limit)
-from calibrax.core.yieldlocus import MohrAnalysis, YieldLocus
+from calibrax.core.sheartest.yieldlocus import MohrAnalysis, YieldLocus
 
 __all__ = [
     "Material", "SizeDistribution", "Geometry", "Procedure", "Numerics", "ShearCellSpec",

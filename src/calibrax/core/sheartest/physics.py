@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 
 if TYPE_CHECKING:
     from calibrax.core.sheartest.result import StepRecord

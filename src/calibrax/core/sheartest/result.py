@@ -13,7 +13,7 @@ from calibrax.core.sheartest.peaks import find_peak, preshear_drift, preshear_st
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, base_slip, inertial_number,
                                              locus_warning, steady_base_load)
 from calibrax.core.sheartest.spec import ShearCellSpec
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import SimulationFailed
 
 #: a step whose mean measured σ is below this fraction of its target lost the bed (the servo let the

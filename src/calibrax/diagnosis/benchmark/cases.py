@@ -23,7 +23,7 @@ control). An external folder's labels need only ``case``, ``class`` and ``expect
 ``effects`` for the magnitude error).
 
 **Blinded files.** Each case is an ordinary experiment (header YAML, points CSV, curves CSV; see
-:mod:`calibrax.core.experiment`) named by its opaque id. Its header names the cell it was
+:mod:`calibrax.core.data.experiment`) named by its opaque id. Its header names the cell it was
 measured in (preset and base) and says it is made data, but not the backend, the material or any
 effect; what made it is in the labels file only.
 """
@@ -157,7 +157,7 @@ def write_blinded(results: list, out: Path, cell_words: dict[str, Any], noise: M
                   rng: np.random.Generator) -> Path:
     """Write replicate results as an ordinary experiment under ``out``'s stem, with measurement
     noise on top and a header that names the cell but nothing that made the data."""
-    from calibrax.core.pseudo import write_experiment
+    from calibrax.core.data.pseudo import write_experiment
 
     sd = {"density": noise.density, "tau": noise.tau, "preshear": noise.tau, "sigma": noise.sigma} if noise else {}
     words = ("MADE DATA FOR A BLIND BENCHMARK, NOT MEASURED. What made it is in the benchmark's labels file, "

@@ -157,7 +157,7 @@ def _dem_level(bench, per_class, cases, given, other, seed, workers, out):
 
 def _read_cases(folder: Path, labels, bench) -> dict:
     """Each labelled case's experiment file, read and checked (a missing one names the case)."""
-    from calibrax.core.experiment import load_experiment
+    from calibrax.core.data.experiment import load_experiment
     from calibrax.diagnosis import gap as gaps
 
     out = {}

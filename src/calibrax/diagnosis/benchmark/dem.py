@@ -21,7 +21,7 @@ from typing import Callable
 
 import numpy as np
 
-from calibrax.core.study import StudyCase, run_study
+from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.benchmark.cases import MeasurementNoise, cell_words, write_blinded, write_labels
 from calibrax.diagnosis.benchmark.design import run_design, seed_case_folder
@@ -77,7 +77,7 @@ def write_cases(model: BenchmarkModel, plans: list[PlannedCase], truths: dict[st
 def diagnose_cases(model: BenchmarkModel, case_files: list[Path], folder: Path, design_store: Path,
                    make_executor: Callable[[], object], oracles: dict[str, list] | None = None) -> list[Answer]:
     """Diagnose every case from its file alone; each gets its own folder with the shared design."""
-    from calibrax.core.experiment import load_experiment
+    from calibrax.core.data.experiment import load_experiment
     from calibrax.diagnosis import diagnose
 
     answers = []

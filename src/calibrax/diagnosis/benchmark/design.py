@@ -12,7 +12,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from calibrax.core.study import StudyCase, run_study
+from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis.benchmark.cases import RollingFriction
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import Budget, DesignPoint, design_points

@@ -242,7 +242,7 @@ def detectability(truth: TruthEmulator, replicates: int = 3) -> str:
 
 def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str) -> dict[str, Any]:
     """The shipped design's data: every finished simulation's point, effects, seed and features."""
-    from calibrax.core.features import result_features
+    from calibrax.core.data.features import result_features
 
     peak_window = model.spec.procedure.peak_window
     rows = []

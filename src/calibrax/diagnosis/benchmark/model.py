@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.diagnosis.design import Box, Budget, DesignPoint, design_points
 from calibrax.diagnosis.effects import Effect

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from calibrax.core.campaign import EXPERIMENT_SEED_BASE, point_spec
+from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, point_spec
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.diagnosis.benchmark.cases import (CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, ROLLING_FRICTION_TRUTH,
                                                 TWO_EFFECTS, CaseLabel, RollingFriction, expected_answer, opaque_ids)

@@ -1,7 +1,7 @@
 """Builtin acquisitions: ``qei`` (the paper's q-point EI), ``qlogei``, ``qnei``, ``qlognei`` and
 ``sobol``.
 
-All work in the unit cube on the :class:`~calibrax.core.surrogate.Kriging` model of −distance,
+All work in the unit cube on the :class:`~calibrax.core.search.surrogate.Kriging` model of −distance,
 through BoTorch's Monte-Carlo acquisition functions and ``optimize_acqf``. ``qei`` and ``qlogei``
 take their incumbent ``best_f`` from the model's posterior mean at the evaluated points (option
 ``best_f: posterior_mean``, the default): on noisy DEM the best *observed* distance is a lucky
@@ -17,16 +17,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrax.core.acquisition import Observations
-from calibrax.core.design import sobol_points
+from calibrax.core.search.acquisition import Observations
+from calibrax.core.search.design import sobol_points
 from calibrax.core.hookspecs import hookimpl
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.search.parameters import ParameterSpace
 from calibrax.errors import ConfigError
 
 if TYPE_CHECKING:  # torch is imported only when a proposal is made: simulation processes never need it
     import torch
 
-    from calibrax.core.surrogate import Kriging
+    from calibrax.core.search.surrogate import Kriging
 
 
 class _BoTorchAcquisition(abc.ABC):
@@ -52,7 +52,7 @@ class _BoTorchAcquisition(abc.ABC):
         from botorch.optim import optimize_acqf
         from botorch.sampling import SobolQMCNormalSampler
 
-        from calibrax.core.surrogate import DTYPE
+        from calibrax.core.search.surrogate import DTYPE
 
         if model is None:
             raise ConfigError("acquisition", f"{self.name} needs a fitted model")

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from calibrax.core.dask_executor import DaskExecutor
-from calibrax.core.executor import LocalExecutor
+from calibrax.core.running.dask_executor import DaskExecutor
+from calibrax.core.running.executor import LocalExecutor
 from calibrax.core.hookspecs import hookimpl
 
 

@@ -3,7 +3,7 @@
 
 Each states its noise threshold — the distance the true parameters stay below 95 % of the time —
 in :attr:`MetricValue.features` (``noise_threshold``, ``noise_threshold_rate``), built by
-:mod:`calibrax.core.threshold` from how the distance is made; status, logs and reports say
+:mod:`calibrax.core.search.threshold` from how the distance is made; status, logs and reports say
 "within the noise" against it, never against d ≤ 1.
 """
 
@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.experiment import Experiment
-from calibrax.core.features import experiment_features, result_features, step_mean, summarise
-from calibrax.core.metric import MetricValue, terms_from_features
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.data.features import experiment_features, result_features, step_mean, summarise
+from calibrax.core.search.metric import MetricValue, terms_from_features
 from calibrax.core.sheartest import ShearTestResult
-from calibrax.core.threshold import DEFAULT_RATE, noise_threshold, welch_dof
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.search.threshold import DEFAULT_RATE, noise_threshold, welch_dof
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import ConfigError
 from calibrax.core.hookspecs import hookimpl
 
@@ -111,7 +111,7 @@ class CAifMetric:
         return MetricValue(d, unc, features, terms_from_features(features))
 
     def term_names(self, experiment: Experiment) -> list[str]:
-        """C and AIF (a :class:`~calibrax.core.metric.TermsMetric`)."""
+        """C and AIF (a :class:`~calibrax.core.search.metric.TermsMetric`)."""
         return ["cohesion", "aif"]
 
 
@@ -138,7 +138,7 @@ class RobustMetric:
             are one fewer); default: taken as exact.
 
     Noise threshold: the 95 % quantile of Σ t_i² with each t_i's degrees of freedom from Welch–
-    Satterthwaite on s_i² (independent features), by :func:`~calibrax.core.threshold.noise_threshold`.
+    Satterthwaite on s_i² (independent features), by :func:`~calibrax.core.search.threshold.noise_threshold`.
     """
 
     name = "robust"
@@ -240,7 +240,7 @@ class RobustMetric:
         return MetricValue(d, unc, feats, terms_from_features(feats))
 
     def term_names(self, experiment: Experiment) -> list[str]:
-        """The features compared that the experiment has (a :class:`~calibrax.core.metric.TermsMetric`)."""
+        """The features compared that the experiment has (a :class:`~calibrax.core.search.metric.TermsMetric`)."""
         return sorted(self._experiment_summary(experiment))
 
 

@@ -5,7 +5,7 @@ the preshear stress, and every shear step's τ curve.
 
 Made data is never presented as measured: the header and both CSVs begin with a provenance block
 naming the backend, its version, the cell, the spec hash, the material and the effects switched
-on. Replicate seeds lie at or above :data:`calibrax.core.campaign.EXPERIMENT_SEED_BASE`, where no
+on. Replicate seeds lie at or above :data:`calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE`, where no
 campaign's simulation seed lies.
 """
 
@@ -17,7 +17,7 @@ from typing import Callable
 
 import yaml
 
-from calibrax.core.campaign import EXPERIMENT_SEED_BASE
+from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.errors import ConfigError
 

@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
-from calibrax.core.executor import SimulationTask, StartTracker, engine_wall_time
+from calibrax.core.running.executor import SimulationTask, StartTracker, engine_wall_time
 from calibrax.core.sheartest import ShearTestResult
 from calibrax.errors import SimulationFailed
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from calibrax.core.config import CampaignConfig
 from calibrax.core.sheartest import ShearCellSpec, inertial_number
-from calibrax.core.study import CaseOutcome, StudyCase
+from calibrax.core.studies.study import CaseOutcome, StudyCase
 from calibrax.errors import ConfigError, SpecError
 
 #: knob → (cheapest first when sorted ascending?, what "finest" means)
@@ -94,7 +94,7 @@ class Verdict:
                 f"preshear τ/σ lie within the uncertainty of the finest's ({self.finest:g})")
 
 
-#: the robust features a converged setting must also reproduce (calibrax.core.features, means over steps)
+#: the robust features a converged setting must also reproduce (calibrax.core.data.features, means over steps)
 ROBUST = ("peak_ratio", "preshear_ratio")
 
 

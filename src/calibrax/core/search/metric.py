@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from calibrax.core.experiment import Experiment
+from calibrax.core.data.experiment import Experiment
 from calibrax.core.sheartest import ShearTestResult
 
 
@@ -50,7 +50,7 @@ class MetricValue:
     @property
     def threshold(self) -> float:
         """The distance the true parameters stay below at :attr:`threshold_rate` (NaN where the metric
-        states none): what "within the noise" means for this metric (see calibrax.core.threshold)."""
+        states none): what "within the noise" means for this metric (see calibrax.core.search.threshold)."""
         return float(self.features.get("noise_threshold", float("nan")))
 
     @property

@@ -1,6 +1,6 @@
 """The contract of a backend's analytic checks (``calibrax crosscheck``'s micro level).
 
-A backend proves its contact law on cases with a known answer (:mod:`calibrax.core.analytic`): a
+A backend proves its contact law on cases with a known answer (:mod:`calibrax.core.sheartest.analytic`): a
 head-on collision of two spheres, a sphere sliding on the base, a sphere spinning on it against
 rolling resistance. It offers them as a class implementing :class:`Verification`, registered
 through the ``calibrax_verifications`` hook like any other plugin, whose ``name`` is the simulator

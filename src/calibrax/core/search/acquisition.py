@@ -1,6 +1,6 @@
 """The Acquisition protocol: where to simulate next, in the unit cube.
 
-Acquisitions work on a fitted :class:`~calibrax.core.surrogate.Kriging` surrogate (BoTorch's
+Acquisitions work on a fitted :class:`~calibrax.core.search.surrogate.Kriging` surrogate (BoTorch's
 separation of model and acquisition); a space-filling one (``sobol``) ignores the model.
 """
 
@@ -11,7 +11,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from calibrax.core.parameters import ParameterSpace
+from calibrax.core.search.parameters import ParameterSpace
 
 
 @dataclass(frozen=True)

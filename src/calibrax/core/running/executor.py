@@ -3,7 +3,7 @@
 Every simulation runs in a process of its own (:func:`run_isolated`): a crash, a hang or a
 segfault of an engine stays there, a timeout kills it, and the process quits by itself if the
 process that started it dies. The builtin ``local`` executor runs ``workers`` of them at once on
-this machine; ``dask`` (:mod:`calibrax.core.dask_executor`) runs them on Dask workers.
+this machine; ``dask`` (:mod:`calibrax.core.running.dask_executor`) runs them on Dask workers.
 """
 
 from __future__ import annotations
@@ -177,7 +177,7 @@ def _run_in_process(task: SimulationTask, timeout_s: float | None, handle: _Runn
     handle = handle or _Running()
     log = open(workdir / "calibrax-worker.log", "wb")
     try:
-        handle.proc = subprocess.Popen([sys.executable, "-m", "calibrax.core.isolate", str(request), str(outcome),
+        handle.proc = subprocess.Popen([sys.executable, "-m", "calibrax.core.running.isolate", str(request), str(outcome),
                                         str(os.getpid())], stdout=log, stderr=subprocess.STDOUT,
                                        start_new_session=True)
         if handle.cancelled:

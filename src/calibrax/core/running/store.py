@@ -30,8 +30,8 @@ from typing import Any, Callable, Iterator
 import h5py
 import numpy as np
 
-from calibrax.core.experiment import Experiment
-from calibrax.core.metric import MetricValue, terms_as_features
+from calibrax.core.data.experiment import Experiment
+from calibrax.core.search.metric import MetricValue, terms_as_features
 
 #: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
 Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
@@ -371,7 +371,7 @@ class CampaignStore:
             return read_experiment_group(f["experiment"]) if "experiment" in f else None
 
     def write_answer(self, answer: dict[str, Any]) -> None:
-        """Store the campaign's current answer (:meth:`calibrax.core.answer.Answer.to_dict`)."""
+        """Store the campaign's current answer (:meth:`calibrax.core.search.answer.Answer.to_dict`)."""
         def put(f: h5py.File) -> None:
             f.attrs["answer"] = json.dumps(answer)
 

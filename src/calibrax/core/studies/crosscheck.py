@@ -5,7 +5,7 @@ report the peaks of each step, the bulk density, C and AIF with the regression s
 seed-to-seed s.d., and whether each pair of backends agrees: |Δ| ≤ 2·√(u_a² + u_b²), with
 u = max(regression s.e., seed s.d./√n).
 
-Micro level: each backend's :class:`~calibrax.core.verification.Verification` (registered through the
+Micro level: each backend's :class:`~calibrax.core.sheartest.verification.Verification` (registered through the
 ``calibrax_verifications`` hook under the simulator's name) runs the analytic cases — a head-on
 two-sphere collision (contact time, restitution, peak overlap), sliding on the base, rolling
 resistance — at the config's material, and the values are set side by side; they agree when they
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 from calibrax.core.config import CampaignConfig
 from calibrax.core.registry import get_manager
-from calibrax.core.study import CaseOutcome, StudyCase
-from calibrax.core.verification import MICRO_CASES, MicroMaterial, Verification
+from calibrax.core.studies.study import CaseOutcome, StudyCase
+from calibrax.core.sheartest.verification import MICRO_CASES, MicroMaterial, Verification
 from calibrax.errors import ConfigError, PluginError
 
 log = logging.getLogger("calibrax")
@@ -117,7 +117,7 @@ def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
 
 
 def verification_for(backend: str) -> Verification | None:
-    """The backend's registered :class:`~calibrax.core.verification.Verification` (None if it has
+    """The backend's registered :class:`~calibrax.core.sheartest.verification.Verification` (None if it has
     none: its micro cases are then left out of the table)."""
     found = get_manager().plugins("verification").get(backend)
     return found.cls() if found is not None else None

@@ -6,7 +6,7 @@ A distance such as the ``robust`` metric's, d = √Σ ((f_i − f_exp,i)/s_i)²,
 experiment, and adds one seed's noise to each feature before folding. A GP of d must learn the
 cone's tip from a handful of noisy points; a GP per feature only learns a smooth surface, with the
 feature's own seed noise as its noise (``X_sim_stderr`` from the metric, as a log-normal prior the
-way :class:`~calibrax.core.surrogate.Kriging` uses it). The distance is then computed from the
+way :class:`~calibrax.core.search.surrogate.Kriging` uses it). The distance is then computed from the
 features' posterior:
 
 * the **expected distance** m_D(x) = √E[D²] = √Σ ((μ_i − f_exp,i)² + σ_i²)/s_i², with μ_i, σ_i the
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from calibrax.core.surrogate import DTYPE, Kriging
+from calibrax.core.search.surrogate import DTYPE, Kriging
 
 #: a failed point's penalty at its centre, in units of the largest observed distance
 FAILURE_PENALTY = 2.0
@@ -74,7 +74,7 @@ class CompositeKriging:
     def fit(cls, x: np.ndarray, terms: list[dict], distance: np.ndarray, seed: int = 0,
             failed_x: np.ndarray | None = None) -> "CompositeKriging":
         """Fit on unit-cube points ``x`` shape (n, d), their metric terms (one
-        {name: :class:`~calibrax.core.metric.DistanceTerm`} per point) and observed distances (n,).
+        {name: :class:`~calibrax.core.search.metric.DistanceTerm`} per point) and observed distances (n,).
         The target and scale of each feature are the last point's (they depend on the experiment
         and the seeds per point only). ``failed_x`` shape (k, d): points that failed physically."""
         names = tuple(sorted(set.intersection(*(set(t) for t in terms))))

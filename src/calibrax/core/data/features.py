@@ -21,10 +21,10 @@ from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 
 if TYPE_CHECKING:  # pragma: no cover
-    from calibrax.core.experiment import Experiment
+    from calibrax.core.data.experiment import Experiment
     from calibrax.core.sheartest import ShearTestResult
 
 __all__ = ["step_mean", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",

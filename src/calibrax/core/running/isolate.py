@@ -1,4 +1,4 @@
-"""The process one simulation runs in: ``python -m calibrax.core.isolate TASK.pkl OUTCOME.pkl PARENT_PID``.
+"""The process one simulation runs in: ``python -m calibrax.core.running.isolate TASK.pkl OUTCOME.pkl PARENT_PID``.
 
 Reads the task, runs it, and writes ``("ok", result)`` or ``("failed", reason, log_tail, kind)``
 to OUTCOME (aside, then renamed, so a reader never sees half a file). If the parent process
@@ -31,7 +31,7 @@ def _watch(parent_pid: int) -> None:
 def main(argv: list[str]) -> int:
     request, outcome, parent = Path(argv[0]), Path(argv[1]), int(argv[2])
     threading.Thread(target=_watch, args=(parent,), daemon=True).start()
-    from calibrax.core.executor import run_task
+    from calibrax.core.running.executor import run_task
     from calibrax.errors import SimulationFailed
 
     task = pickle.loads(request.read_bytes())

@@ -1,5 +1,5 @@
 """Running a fixed set of simulations (a cross-check, a convergence study, a diagnosis design) into a
-store, with progress and resume, through the same :class:`~calibrax.core.scheduler.Scheduler` as a
+store, with progress and resume, through the same :class:`~calibrax.core.running.scheduler.Scheduler` as a
 campaign (a failure, the engine's or the executor's, is stored as data the same way) — the
 campaign's machinery without the search.
 
@@ -21,12 +21,12 @@ from typing import Callable
 
 import numpy as np
 
-from calibrax.core.executor import SimulationTask
-from calibrax.core.features import result_features, step_mean
-from calibrax.core.scheduler import Finished, Scheduler
+from calibrax.core.running.executor import SimulationTask
+from calibrax.core.data.features import result_features, step_mean
+from calibrax.core.running.scheduler import Finished, Scheduler
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
-from calibrax.core.store import CampaignStore
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.running.store import CampaignStore
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError
 
 log = logging.getLogger("calibrax")
@@ -77,7 +77,7 @@ def shear_window_diagnostics(result: ShearTestResult) -> dict[str, float]:
 
 
 def _robust_features(result: ShearTestResult) -> dict[str, float]:
-    """The test's mean peak τ/σ_measured and mean preshear steady τ/σ (calibrax.core.features)."""
+    """The test's mean peak τ/σ_measured and mean preshear steady τ/σ (calibrax.core.data.features)."""
     f = result_features(result)
     return {stem: step_mean(f, stem) for stem in ("peak_ratio", "preshear_ratio")}
 
@@ -121,7 +121,7 @@ class CaseOutcome:
         hold, :func:`~calibrax.core.sheartest.steady_base_load`), ``base_slip`` (the bottom layer's
         spin over the head's rate, :func:`~calibrax.core.sheartest.base_slip`) and the robust
         features ``peak_ratio`` and ``preshear_ratio`` (means over the steps, see
-        :mod:`calibrax.core.features`), each with ``_sd``, their seed s.d."""
+        :mod:`calibrax.core.data.features`), each with ``_sd``, their seed s.d."""
         locus = self.locus()
         loci = self.seed_loci()
         n = len(loci)

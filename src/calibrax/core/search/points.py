@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from calibrax.core.acquisition import Observations
-from calibrax.core.answer import Answer, answer_from_model
+from calibrax.core.search.acquisition import Observations
+from calibrax.core.search.answer import Answer, answer_from_model
 from calibrax.core.config import CampaignConfig
-from calibrax.core.store import PointRecord
+from calibrax.core.running.store import PointRecord
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
 DUPLICATE_TOL = 1e-3
@@ -106,13 +106,13 @@ def noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
 
 def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int,
                        obs: Observations | None = None):
-    """A :class:`~calibrax.core.surrogate.Kriging` model of the points' distances (penalised
+    """A :class:`~calibrax.core.search.surrogate.Kriging` model of the points' distances (penalised
     failures included) with the options ``surrogate`` ({model, transform, noise}); None with < 2
     points. ``model: composite`` (the default) fits :func:`fit_composite_model` instead.
     ``noise: metric`` takes the noise prior from the metric's threshold
-    (:func:`~calibrax.core.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
+    (:func:`~calibrax.core.search.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
     the points' :func:`observations`, when the caller has them already."""
-    from calibrax.core.surrogate import Kriging, noise_sd_from_threshold
+    from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
 
     obs = observations(points) if obs is None else obs
     if len(obs.y) < 2:
@@ -128,11 +128,11 @@ def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], see
 
 
 def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], seed: int):
-    """The :class:`~calibrax.core.composite.CompositeKriging` model of the finished points' distance
+    """The :class:`~calibrax.core.search.composite.CompositeKriging` model of the finished points' distance
     terms, ``failed`` (physically failed points) as penalties; None with fewer than 2 finished
     points or when their metrics state no shared terms (the caller then falls back to the distance
     model)."""
-    from calibrax.core.composite import CompositeKriging, composite_ready
+    from calibrax.core.search.composite import CompositeKriging, composite_ready
 
     terms = [p.metric.terms() for p in finished]
     if len(finished) < 2 or not composite_ready(terms):

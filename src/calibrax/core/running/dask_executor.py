@@ -23,7 +23,7 @@ import threading
 import uuid
 from typing import Any
 
-from calibrax.core.executor import SimulationTask, run_isolated
+from calibrax.core.running.executor import SimulationTask, run_isolated
 from calibrax.errors import ConfigError, SimulationFailed
 
 CLUSTERS = ("local", "slurm", "pbs")

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrax.core.yamlfile import read_yaml
-from calibrax.core.yieldlocus import YieldLocus
+from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import ExperimentError
 
 POINT_COLUMNS = ("normal_stress_pa", "peak_shear_stress_pa", "replicate")

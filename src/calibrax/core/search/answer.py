@@ -5,7 +5,7 @@ On noisy DEM the best *observed* distance is a lucky seed (issue 18: the "best" 
 Kriging model instead:
 
 * the **recommendation** is the minimiser of the posterior mean of the (transformed) distance over
-  the box (for :class:`~calibrax.core.composite.CompositeKriging`, the expected distance of the
+  the box (for :class:`~calibrax.core.search.composite.CompositeKriging`, the expected distance of the
   features' joint prediction): where the model expects a new simulation to land closest to the
   experiment;
 * the **plausible region** is where the model cannot rule out that a simulation lands within the
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.parameters import DISPLAY, ParameterSpace
+from calibrax.core.search.parameters import DISPLAY, ParameterSpace
 
 #: a parameter whose plausible values span at least this share of its searched range (unit cube) is
 #: reported as not constrained by the test
@@ -126,7 +126,7 @@ class Answer:
 
 def grid(dim: int, n: int = GRID_POINTS, seed: int = 0) -> np.ndarray:
     """``n`` scrambled Sobol points in [0, 1]^dim plus the box's corners, shape (n + 2^dim, dim)."""
-    from calibrax.core.design import sobol_points
+    from calibrax.core.search.design import sobol_points
 
     corners = np.array(np.meshgrid(*[[0.0, 1.0]] * dim)).reshape(dim, -1).T
     return np.vstack([sobol_points(dim, n, seed=seed), corners])
@@ -151,7 +151,7 @@ def recommend_unit(model, dim: int, candidates: np.ndarray | None = None) -> np.
 
 def answer_from_model(model, space: ParameterSpace, threshold: float, rate: float, n_points: int,
                       candidates: np.ndarray | None = None) -> Answer:
-    """The :class:`Answer` of a fitted :class:`~calibrax.core.surrogate.Kriging` model of the distance."""
+    """The :class:`Answer` of a fitted :class:`~calibrax.core.search.surrogate.Kriging` model of the distance."""
     dim = space.dim
     cand = grid(dim) if candidates is None else candidates
     best_u = recommend_unit(model, dim, cand)

@@ -12,7 +12,7 @@ proposed (points enqueued on a later resume run first, as the next batch):
 
 Every proposal is written to the store *before* it runs and every result as soon as it finishes,
 so ``run()`` on an existing store resumes: it re-runs only the simulations that were in flight.
-The simulations run through :class:`~calibrax.core.scheduler.Scheduler`, the loop every study
+The simulations run through :class:`~calibrax.core.running.scheduler.Scheduler`, the loop every study
 shares; the campaign keeps only what is its own: ask the model, screen proposals, decide when to
 stop.
 
@@ -23,7 +23,7 @@ range), which steers the acquisition away from its neighbourhood, and no point i
 again within 1e-3 (unit-cube units) of an existing one: such a proposal is replaced by a
 space-filling point.
 
-The campaign's result is its :class:`~calibrax.core.answer.Answer`, not the best observation (a lucky
+The campaign's result is its :class:`~calibrax.core.search.answer.Answer`, not the best observation (a lucky
 seed on noisy DEM): the minimiser of the Kriging model's posterior mean with the region of plausible
 parameters, refitted after every batch and stored, and printed at the end.
 """
@@ -39,18 +39,18 @@ from typing import Any, Callable
 
 import numpy as np
 
-from calibrax.core.answer import Answer
+from calibrax.core.search.answer import Answer
 from calibrax.core.config import CampaignConfig
-from calibrax.core.executor import SimulationTask
-from calibrax.core.metric import describe_simulated
+from calibrax.core.running.executor import SimulationTask
+from calibrax.core.search.metric import describe_simulated
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
-from calibrax.core.design import sobol_points
+from calibrax.core.search.design import sobol_points
 from calibrax.core.registry import get_manager
-from calibrax.core.scheduler import Finished, Scheduler
-from calibrax.core.summary import CampaignSummary, noise_text
-from calibrax.core.search import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fit_distance_model,
+from calibrax.core.running.scheduler import Finished, Scheduler
+from calibrax.core.search.summary import CampaignSummary, noise_text
+from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fit_distance_model,
                                  observations, screen_repeats, settled)
-from calibrax.core.store import CampaignStore, PointRecord
+from calibrax.core.running.store import CampaignStore, PointRecord
 from calibrax.errors import CalibraxError
 
 log = logging.getLogger("calibrax")

@@ -1,0 +1,1 @@
+"""The search: calibrated parameters and their registry, space-filling designs, the Kriging models, acquisitions, metrics, noise thresholds, the answer and the campaign's points as the search sees them."""
