@@ -41,6 +41,14 @@ def shear_run(bank):
 
 
 # ----------------------------------------------------------------------------- contact law
+def test_the_version_probe_leaves_no_log_in_the_working_folder(tmp_path, monkeypatch):
+    """LIGGGHTS writes log.liggghts where it runs; asking its version must not leave one in the
+    user's folder (a diagnosis run from an external folder found one there)."""
+    monkeypatch.chdir(tmp_path)
+    assert LiggghtsSimulator().version().startswith("LIGGGHTS-")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_two_sphere_elastic_collision_matches_hertz():
     out = two_sphere_collision(speed=0.5, restitution=1.0)
     assert out["contact_time"] == pytest.approx(out["hertz_contact_time"], rel=0.02)

@@ -9,6 +9,7 @@ import re
 import shutil
 import signal
 import subprocess
+import tempfile
 import time
 from pathlib import Path
 
@@ -226,8 +227,11 @@ class LiggghtsSimulator:
         if exe is None:
             return "LIGGGHTS (not found)"
         try:
-            out = subprocess.run([exe, "-h"], capture_output=True, text=True, timeout=30, check=False,
-                                 stdin=subprocess.DEVNULL).stdout
+            # in a scratch folder: LIGGGHTS writes log.liggghts wherever it runs, and the probe must
+            # not leave one in the user's working folder
+            with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-version-") as scratch:
+                out = subprocess.run([exe, "-h"], capture_output=True, text=True, timeout=30, check=False,
+                                     stdin=subprocess.DEVNULL, cwd=scratch).stdout
         except (OSError, subprocess.TimeoutExpired):
             return "LIGGGHTS (unknown version)"
         m = _VERSION_RE.search(out)
