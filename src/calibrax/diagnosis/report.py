@@ -37,8 +37,10 @@ def headline(d: Diagnosis) -> str:
 
 def shrinkage_text(d: Diagnosis) -> str:
     """The held-out gap before and after, and what it means."""
-    before, after = gap_size(d.held_out("before")), gap_size(d.held_out("after"))
+    before, after = d.gap_before, d.gap_after
     text = f"Held-out gap (RMS of z; about 1 is the noise): {_fmt(before)} before, {_fmt(after)} after"
+    if not d.after:
+        text += " (nothing was recalibrated, so the gap stays what it was)"
     if not any(g.implausible for g in d.held_out("before")):
         return text + (": the held-out features were within the noise before (no |z| > 3), so there was no "
                        "held-out gap to shrink; the after column shows the recalibration did not open one.")

@@ -123,9 +123,20 @@ class Diagnosis:
         return [g for g in rows if g.name in self.judge_on]
 
     @property
+    def gap_before(self) -> float:
+        """The held-out gap before: the RMS of the held-out features' z."""
+        return gaps.gap_size(self.held_out("before"))
+
+    @property
+    def gap_after(self) -> float:
+        """The held-out gap after the recalibration; where nothing was recalibrated (no effect
+        named), the gap is what it was: :attr:`gap_before`."""
+        return gaps.gap_size(self.held_out("after")) if self.after else self.gap_before
+
+    @property
     def shrinkage(self) -> float:
-        """1 − (held-out gap after)/(before), the gap as the RMS of the held-out features' z."""
-        b, a = gaps.gap_size(self.held_out("before")), gaps.gap_size(self.held_out("after"))
+        """1 − gap_after / gap_before: 0 where nothing was recalibrated, NaN where there was no gap."""
+        b, a = self.gap_before, self.gap_after
         return 1.0 - a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else math.nan
 
     def to_dict(self) -> dict[str, Any]:
@@ -141,7 +152,7 @@ class Diagnosis:
                 "judge_on": self.judge_on, "features": self.features, "verdict": self.verdict,
                 "reason": self.ranking.reason, "models": models, "before": gap_rows(self.before),
                 "after": gap_rows(self.after), "recalibrated": self.recalibrated,
-                "gap_before": gaps.gap_size(self.held_out("before")), "gap_after": gaps.gap_size(self.held_out("after")),
+                "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
                 "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores,
                 "metric_gap": self.metric_gap, "seed_sd": self.seed_sd}

@@ -86,14 +86,12 @@ def _shrink(before: float, after: float) -> float:
 
 
 def answer_from_diagnosis(case: str, result, oracle_after: float = math.nan) -> Answer:
-    """The answer of a :class:`~calibrax.diagnosis.Diagnosis`."""
-    from calibrax.diagnosis import gap as gaps
-
-    before = gaps.gap_size(result.held_out("before"))
-    after = gaps.gap_size(result.held_out("after")) if result.after else before
+    """The answer of a :class:`~calibrax.diagnosis.Diagnosis` (its gaps as the diagnosis states them:
+    a case answered "none" keeps its gap, shrinkage 0)."""
     models = result.ranking.models
     return Answer(case, result.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
-                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after)
+                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, result.gap_before, result.gap_after,
+                  oracle_after)
 
 
 def write_answers(answers: list[Answer], path: Path) -> None:

@@ -1,0 +1,35 @@
+"""A diagnosis that names no effect recalibrates nothing: its held-out gap after is the gap before,
+its shrinkage 0, the same in diagnosis.json as in the benchmark's answers (issue 36)."""
+
+from __future__ import annotations
+
+import pytest
+
+from calibrax.diagnosis.benchmark.scores import answer_from_diagnosis
+from calibrax.diagnosis.gap import FeatureGap
+from calibrax.diagnosis.run import Diagnosis
+from calibrax.diagnosis.scoring import Ranking
+
+
+def _diagnosis(after: list[FeatureGap]) -> Diagnosis:
+    before = [FeatureGap("bulk_density", "density", 1500.0, 10.0, 3, 1440.0, 10.0, 4),
+              FeatureGap("peak_ratio_9kPa", "peaks", 0.8, 0.05, 3, 0.78, 0.05, 4)]
+    return Diagnosis("analytic_double", ["wall_friction"], {}, ["peaks"], ["bulk_density"],
+                     ["bulk_density", "peak_ratio_9kPa"], before, Ranking([], "none", "within the noise"), {}, after,
+                     {}, 1.0, {}, {})
+
+
+def test_no_effect_named_keeps_the_gap_and_shrinks_it_by_nothing():
+    d = _diagnosis(after=[])
+    data = d.to_dict()
+    assert data["gap_after"] == data["gap_before"] == pytest.approx(d.gap_before) and d.gap_before > 3
+    assert data["shrinkage"] == 0.0 == d.shrinkage
+    answer = answer_from_diagnosis("case", d)
+    assert (answer.gap_before, answer.gap_after) == (data["gap_before"], data["gap_after"])
+
+
+def test_a_recalibration_reports_its_own_gap_after():
+    after = [FeatureGap("bulk_density", "density", 1500.0, 10.0, 3, 1495.0, 10.0, 4)]
+    d = _diagnosis(after)
+    assert d.gap_after < d.gap_before and 0 < d.shrinkage < 1
+    assert d.to_dict()["shrinkage"] == pytest.approx(1 - d.gap_after / d.gap_before)
