@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrax.diagnosis.gap import FeatureGap, gap_size
+from calibrax.diagnosis.gap import FeatureGap
 from calibrax.diagnosis.run import Calibrated, Diagnosis
 from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z, MIN_BAYES_FACTOR, NO_EFFECT, NONE_OF_THEM
 
