@@ -125,3 +125,5 @@ def test_an_experiment_with_peaks_only_is_diagnosed_on_the_yield_locus(tmp_path:
     assert set(data["features"]) == {"peak_ratio_9kPa", "peak_ratio_8kPa", "peak_ratio_7kPa", "peak_ratio_6kPa"}
     assert data["judge_on"] == [] and data["simulations"]["confirm"] == 0
     assert "none is left to judge it on" in run.stdout
+    # the log does not promise confirmation simulations that never run (issue 36)
+    assert "then 3 to confirm" not in run.stdout + run.stderr and "up to 3 to confirm" in run.stdout + run.stderr

@@ -262,8 +262,9 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
     cases = [design_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then %d to confirm",
-             len(effects), ", ".join(e.name for e in effects), backend, sum(len(p.seeds) for p in points), budget.confirm)
+    log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then up to %d to confirm the "
+             "recalibration if an effect is named", len(effects), ", ".join(e.name for e in effects), backend,
+             sum(len(p.seeds) for p in points), budget.confirm)
     try:
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
@@ -285,6 +286,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor,
         elif ranking.verdict != NO_EFFECT and top is not None:
             recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name],
                                                                       scored, fit_on, budget, seed, out, executor)
+        else:
+            log.info("diagnose: verdict %r: no effect to recalibrate, so nothing to confirm", ranking.verdict)
     finally:
         executor.shutdown()
     engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + confirm_engine
