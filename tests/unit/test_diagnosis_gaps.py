@@ -33,3 +33,17 @@ def test_a_recalibration_reports_its_own_gap_after():
     d = _diagnosis(after)
     assert d.gap_after < d.gap_before and 0 < d.shrinkage < 1
     assert d.to_dict()["shrinkage"] == pytest.approx(1 - d.gap_after / d.gap_before)
+
+
+def test_the_magnitude_is_scored_on_the_value_the_user_is_told():
+    from calibrax.diagnosis.benchmark.scores import Answer
+
+    d = _diagnosis(after=[])
+    d.recalibrated = {"effect": "wall_friction", "effect_values": {"wall_friction": 0.198}}
+    answer = answer_from_diagnosis("case", d)
+    assert answer.recovered == {"wall_friction": 0.198} and answer.magnitude == {"wall_friction": 0.198}
+    # an answers file written before `recovered` was kept falls back to the verdict's design posterior
+    old = Answer.from_dict({k: v for k, v in Answer("c", "wall_friction", ("wall_friction",), {"wall_friction": 1.0},
+                                                   {"wall_friction": {"wall_friction": 0.158}}, 4.0, 1.0).to_dict().items()
+                            if k != "recovered"})
+    assert old.magnitude == {"wall_friction": 0.158}

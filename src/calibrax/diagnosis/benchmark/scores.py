@@ -8,8 +8,9 @@ Scores (over the cases of the labels file that have an answer):
 * **confusion matrix**: rows are the classes, columns the verdicts;
 * **false alarms**: the share of ``none`` cases whose verdict is not "none";
 * **unlisted**: the share of unlisted-effect cases answered "none of the candidates";
-* **magnitude error**: |recovered − hidden| / hidden of the hidden effect's parameter, the
-  posterior mean of its model's joint fit (cases whose verdict is right);
+* **magnitude error**: |recovered − hidden| / hidden of the hidden effect's parameter, where
+  "recovered" is the value the diagnosis tells the user (:attr:`Answer.recovered`: the
+  recalibration's, else the design posterior's), over the cases whose verdict is right;
 * **shrinkage against the oracle**: the diagnosis's held-out shrinkage over the oracle's (the
   true effect at its true magnitude, simulated with fresh seeds and compared on the same
   held-out features against the same "before"), over the cases where the oracle shrinks the gap
@@ -47,10 +48,15 @@ class Answer:
         verdict: an effect name, ``none`` or ``none of the candidates``.
         ranked: the models' names, most probable first.
         probabilities: {model name: probability}.
-        effect_means: {model name: {parameter: posterior mean}} of every candidate's joint fit.
+        effect_means: {model name: {parameter: posterior mean}} of every candidate's joint fit to
+            the design (the ranking's posterior, on every feature).
         gap_before, gap_after: the held-out features' RMS z before and after the recalibration
             (after = before where nothing was recalibrated).
         oracle_after: the same for the oracle (NaN where no oracle was run).
+        recovered: {parameter: value} of the named effect as the user is told it: the
+            recalibration's value (fitted on the fit-on features; the log and diagnosis.json give
+            it), or the verdict's design posterior where nothing was recalibrated. The magnitude
+            error is scored on it.
     """
 
     case: str
@@ -61,6 +67,13 @@ class Answer:
     gap_before: float
     gap_after: float
     oracle_after: float = math.nan
+    recovered: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def magnitude(self) -> dict[str, float]:
+        """What the magnitude error is scored on: :attr:`recovered`, or (answers written before it
+        was kept) the verdict's design posterior."""
+        return dict(self.recovered) or dict(self.effect_means.get(self.verdict, {}))
 
     @property
     def shrinkage(self) -> float:
@@ -78,7 +91,8 @@ class Answer:
     def from_dict(cls, d: dict[str, Any]) -> "Answer":
         return cls(d["case"], d["verdict"], tuple(d["ranked"]), dict(d["probabilities"]),
                    {k: dict(v) for k, v in d.get("effect_means", {}).items()}, float(d["gap_before"]),
-                   float(d["gap_after"]), float(d.get("oracle_after", math.nan)))
+                   float(d["gap_after"]), float(d.get("oracle_after", math.nan)),
+                   {k: float(v) for k, v in d.get("recovered", {}).items()})
 
 
 def _shrink(before: float, after: float) -> float:
@@ -91,7 +105,17 @@ def answer_from_diagnosis(case: str, result, oracle_after: float = math.nan) -> 
     models = result.ranking.models
     return Answer(case, result.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
                   {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, result.gap_before, result.gap_after,
-                  oracle_after)
+                  oracle_after, _recovered(result))
+
+
+def _recovered(result) -> dict[str, float]:
+    """The named effect's value as the diagnosis tells the user: the recalibration's, else the
+    verdict's design posterior (see :attr:`Answer.recovered`)."""
+    values = (result.recalibrated or {}).get("effect_values")
+    if values:
+        return {k: float(v) for k, v in values.items()}
+    model = next((m for m in result.ranking.models if m.name == result.verdict), None)
+    return {k: float(v) for k, v in (model.effect_mean if model is not None else {}).items()}
 
 
 def write_answers(answers: list[Answer], path: Path) -> None:
@@ -179,7 +203,7 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
     for lab, a in listed:
         if a.verdict == lab.expected:
             for name, truth in lab.effects.items():
-                got = a.effect_means.get(lab.expected, {}).get(name)
+                got = a.magnitude.get(name)
                 if got is not None and truth != 0:
                     errors.append(abs(got - truth) / abs(truth))
     ratios, ratios_by_class = [], {}
@@ -219,7 +243,8 @@ def table(scores: Scores, title: str = "") -> str:
     lines.append(f"| top-2, medium+large | {_pct(s.top2['medium+large'])} | {s.counts['medium+large']} |")
     lines.append(f"| false alarms (no-effect cases not answered \"none\") | {_pct(s.false_alarms)} | {s.n_none} |")
     lines.append(f"| unlisted effects answered \"none of the candidates\" | {_pct(s.unlisted_rejected)} | {s.n_unlisted} |")
-    lines.append(f"| magnitude error, median relative | {_pct(s.magnitude_error)} | {len(s.magnitude_errors)} |")
+    lines.append(f"| magnitude error, median relative (of the value the diagnosis tells: the recalibration's) | "
+                 f"{_pct(s.magnitude_error)} | {len(s.magnitude_errors)} |")
     lines.append(f"| shrinkage / oracle's, median (oracle shrinks ≥ {MIN_ORACLE_SHRINKAGE:.0%}) | "
                  f"{_pct(s.shrinkage_ratio)} | {len(s.shrinkage_ratios)} |")
     for k, v in s.shrinkage_by_class.items():
