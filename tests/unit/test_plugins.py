@@ -54,3 +54,17 @@ def test_second_campaign_on_a_locked_store_gets_a_lock_error(tmp_path):
         holder.release()
     assert proc.returncode == 2 and "is in use by another campaign" in proc.stderr
     assert not (tmp_path / "runs/double.h5").exists()
+
+
+def test_an_install_without_the_builtin_entry_points_says_how_to_fix_it(monkeypatch):
+    import importlib.metadata as md
+
+    import pytest
+
+    from calibrax.core.registry import PluginWarning
+
+    monkeypatch.setattr(md, "entry_points", lambda **_: [])  # metadata from before the builtins were entry points
+    manager = PluginManager()
+    with pytest.warns(PluginWarning, match="reinstall it"):
+        manager.load_builtins()
+    assert manager.plugins("metric") == {}

@@ -90,8 +90,14 @@ class PluginManager:
                       PluginWarning, stacklevel=3)
 
     def load_builtins(self) -> None:
-        """The builtin plugins: the entry points of the calibrax distribution itself."""
+        """The builtin plugins: the entry points of the calibrax distribution itself. Without any
+        (an install made before the builtins became entry points), warn with the fix."""
+        before = len(self.pm.get_plugins())
         self.load_entry_points(only=BUILTIN_DISTRIBUTION)
+        if len(self.pm.get_plugins()) == before:
+            warnings.warn("calibrax's builtin plugins (metrics, acquisitions, executors, effects) are not registered: "
+                          "its installed metadata predates them; reinstall it (`make setup`, or "
+                          "`pip install -e .` in the checkout)", PluginWarning, stacklevel=2)
 
     def load_entry_points(self, only: str | None = None) -> None:
         """Every ``calibrax`` entry point (or only those of the distribution ``only``)."""
