@@ -35,7 +35,7 @@ _EXPORTS = {
                         "SimulationFailed", "SpecError", "StoreError", "StoreLockedError"],
     "calibrax.core.hookspecs": ["hookimpl"],
     "calibrax.core.registry": ["get_manager"],
-    "calibrax.report": ["build_report"],
+    "calibrax.report": ["build_report", "build_single_file_report"],
     "calibrax.report.trials": ["trial_rows", "write_trials_csv"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}

@@ -28,7 +28,7 @@ examples:
 """
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     from calibrax import __version__
 
     p = argparse.ArgumentParser(
@@ -43,10 +43,10 @@ def _parser() -> argparse.ArgumentParser:
                          description="Run the campaign of CONFIG, or resume it from its store: finished "
                                      "simulations are never repeated. It ends with the answer: the Kriging "
                                      "model's recommendation, the plausible range of each parameter and "
-                                     "whether the test constrains it (README, 'The answer, not the best "
-                                     "point'). Exit codes: 0 done, 2 bad input, 1 other error, 130 stopped "
+                                     "whether the test constrains it (docs/explanation/answer.md)"
+                                     ". Exit codes: 0 done, 2 bad input, 1 other error, 130 stopped "
                                      "(run again to resume).")
-    run.add_argument("config", type=Path, help="campaign YAML file (see README, 'Campaign file')")
+    run.add_argument("config", type=Path, help="campaign YAML file (docs/reference/campaign-file.md)")
     run.add_argument("--check", action="store_true",
                      help="validate CONFIG and every file it names, print the resolved settings, run nothing")
     run.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
@@ -113,7 +113,7 @@ def _parser() -> argparse.ArgumentParser:
                                       "(recalibrated on some feature groups, judged on the others with fresh seeds). "
                                       "Writes DIR/diagnosis.md, diagnosis.json, figures and the simulations' stores "
                                       "(design-*.h5, confirm-*.h5): run it again to resume. The campaign report "
-                                      "includes it. README, 'Diagnosing the sim-to-real gap'.")
+                                      "includes it. docs/tutorials/diagnose-the-gap.md.")
     diag.add_argument("store", type=Path, help="the calibrated campaign's HDF5 store (it must have an answer)")
     diag.add_argument("--effects", metavar="LIST",
                       help="comma-separated candidate effects (default: every registered one the backend can "
@@ -137,7 +137,7 @@ def _parser() -> argparse.ArgumentParser:
                                        "never reads: top-1 and top-2 accuracy, the confusion matrix, false alarms, "
                                        "unlisted effects rejected, the recovered magnitude's error and the held-out "
                                        "shrinkage against the oracle's. Writes DIR/scores.md, scores.json, "
-                                       "confusion.png, answers.json and labels.yaml. README, 'The blind benchmark'.")
+                                       "confusion.png, answers.json and labels.yaml. docs/explanation/diagnosis-benchmark.md.")
     bench.add_argument("--level", default="emulator", choices=["emulator", "dem"],
                        help="emulator: a response surface of the shipped DEM design stands in for the simulator "
                             "(minutes); dem: cases made and diagnosed with real simulations, resumable (hours). "
@@ -165,12 +165,19 @@ def _parser() -> argparse.ArgumentParser:
                        help="output folder (default: runs/diagnose-benchmark-LEVEL/)")
 
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
-                            description="Write index.html, summary.md and PNG/SVG figures into one folder (the page shows the "
-                                        "figure files beside it: share the folder, not the page alone): "
-                                        "C–AIF cartography, yield loci, τ curves of the best point, surrogate "
-                                        "maps with an identifiability statement, convergence, failures.")
+                            description="The campaign's figures and tables: C–AIF cartography, yield loci, τ curves "
+                                        "of the best point, surrogate maps with an identifiability statement, "
+                                        "convergence, failures, and the diagnosis where there is one. By default a "
+                                        "folder: index.html, summary.md and the figures as PNG and SVG files beside "
+                                        "the page (share the folder, not the page alone). With --single-file, one "
+                                        "HTML file with every figure embedded, to mail or attach: it opens with no "
+                                        "other file beside it.")
     report.add_argument("store", type=Path, help="the campaign's HDF5 store")
-    report.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.report/)")
+    report.add_argument("--single-file", action="store_true",
+                        help="write one HTML file with the figures embedded (default STORE.report.html)")
+    report.add_argument("-o", "--output", type=Path, metavar="PATH",
+                        help="output folder (default STORE.report/); with --single-file the file, or a folder "
+                             "to write STORE.report.html into")
 
     sub.add_parser("plugins", help="list registered plugins and the broken ones",
                    description="Every plugin by kind, with its name, version and distribution; plugins that "
@@ -274,9 +281,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from calibrax.report import build_report
+    from calibrax.report import build_report, build_single_file_report
 
-    page = build_report(args.store, args.output)
+    page = (build_single_file_report if args.single_file else build_report)(args.store, args.output)
     print(f"report written: {page}")
     return 0
 
@@ -436,7 +443,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``calibrax`` console script; returns the exit code."""
     from calibrax.errors import CalibraxError
 
-    parser = _parser()
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()

@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from calibrax import ShearCellSpec
+from tests.browser import page_images
 from tests.conftest import calibrax_cli, double_env
 
 NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
@@ -85,6 +86,12 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
     assert report.returncode == 0, report.stderr
     page = (campaign.with_suffix(".report") / "index.html").read_text()
     assert "Diagnosis of the sim-to-real gap" in page and "diagnosis_residuals.png" in page
+    # and so does the single file, its figures embedded and shown by a real browser
+    single = calibrax_cli("report", str(campaign), "--single-file", "-o", str(campaign.parent / "mailed.html"))
+    assert single.returncode == 0, single.stderr
+    images = page_images(campaign.parent / "mailed.html")
+    assert {"diagnosis_residuals", "diagnosis_scores", "diagnosis_curves"} <= {i["alt"] for i in images}, images
+    assert all(i["scheme"] == "data" and i["width"] > 100 for i in images), images
 
 
 @pytest.mark.parametrize("args, key", [

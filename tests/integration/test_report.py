@@ -85,3 +85,32 @@ def test_report_help_says_where_the_figures_are():
 def test_report_of_a_missing_store_is_a_clear_error(tmp_path):
     proc = calibrax_cli("report", str(tmp_path / "nope.h5"))
     assert proc.returncode == 2 and "not found" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_single_file_report_opens_alone_in_a_real_browser(tmp_path):
+    """`report --single-file` writes one HTML file that a browser shows with every figure, with no
+    other file beside it (issue 36: engineers mail reports)."""
+    from tests.browser import page_images
+
+    path = write_double_campaign(tmp_path, budget={"initial": 4, "iterations": 1})
+    assert calibrax_cli("run", str(path), "--quiet").returncode == 0
+    mail = tmp_path / "mail"
+    mail.mkdir()
+    rep = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "--single-file", "-o", str(mail))
+    assert rep.returncode == 0, rep.stderr
+    assert [p.name for p in mail.iterdir()] == ["double.report.html"], list(mail.iterdir())
+    assert str(mail / "double.report.html") in rep.stdout
+    alone = tmp_path / "inbox" / "report.html"      # moved where nothing else lies, as an attachment is
+    alone.parent.mkdir()
+    (mail / "double.report.html").rename(alone)
+    page = alone.read_text()
+    addresses = re.findall(r"(?:src|href)='([^']*)'", page)
+    assert addresses and all(a.startswith("data:") for a in addresses), [a[:40] for a in addresses]
+    assert "Best observed point" in page and "<b>Answer.</b>" in page
+    images = page_images(alone)
+    assert sorted(i["alt"] for i in images) == sorted(FIGURES), images
+    assert all(i["scheme"] == "data" and i["width"] > 100 and i["height"] > 100 for i in images), images
+    # the default file name sits beside the store; the folder report is untouched by it
+    default = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "--single-file")
+    assert default.returncode == 0 and (tmp_path / "runs/double.report.html").is_file()
+    assert not (tmp_path / "runs/double.report").exists()

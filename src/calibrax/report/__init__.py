@@ -1,17 +1,22 @@
-"""``calibrax report``: an HTML page with its PNG/SVG figures beside it (as files in the same
-folder: copy the folder to share it) and a Markdown summary."""
+"""``calibrax report``: an HTML page with its PNG/SVG figures beside it and a Markdown summary (a
+folder: copy the folder to share it), or one HTML file with the figures embedded (``--single-file``:
+mail it, it opens with no other file beside it)."""
 
 from __future__ import annotations
 
+import base64
 import html
 import math
+import os
+import tempfile
 from pathlib import Path
+from typing import Callable
 
 from calibrax.core.studies.campaign import noise_text
 from calibrax.report import figures
 from calibrax.report.data import CampaignData, load_campaign
 
-__all__ = ["build_report", "load_campaign", "CampaignData"]
+__all__ = ["build_report", "build_single_file_report", "load_campaign", "CampaignData"]
 
 CAPTIONS = {
     "cartography": "C–AIF cartography (the paper's figure 4): simulated points with regression error bars, "
@@ -24,17 +29,15 @@ CAPTIONS = {
 
 
 def build_report(store: str | Path, out_dir: str | Path | None = None) -> Path:
-    """Write ``index.html``, ``summary.md`` and the figures for a store; return the HTML path."""
+    """Write ``index.html``, ``summary.md`` and the figures (PNG and SVG) into ``out_dir`` (default
+    ``STORE.report/``); return the HTML path. The page refers to the figure files beside it."""
     data = load_campaign(store)
     out = Path(out_dir) if out_dir is not None else data.store.with_suffix(".report")
     out.mkdir(parents=True, exist_ok=True)
-    files: dict[str, list[str]] = {}
-    files["cartography"] = figures.cartography(data, out)
-    files["yield_loci"] = figures.yield_loci(data, out)
-    files["shear_curves"] = figures.shear_curves(data, out)
-    files["surrogate"], statement = figures.surrogate_maps(data, out)
-    files["convergence"] = figures.convergence(data, out)
-    diagnosis = _diagnosis(data.store, out)
+    files, statement = _figures(data, out)
+    diagnosis = _diagnosis(data.store)
+    for figure in _diagnosis_figures(data.store):
+        (out / figure.name).write_bytes(figure.read_bytes())
     (out / "summary.md").write_text(_markdown(data, statement) + (f"\n{diagnosis}" if diagnosis else ""),
                                     encoding="utf-8")
     page = out / "index.html"
@@ -42,19 +45,58 @@ def build_report(store: str | Path, out_dir: str | Path | None = None) -> Path:
     return page
 
 
-def _diagnosis(store: Path, out: Path) -> str:
-    """The store's diagnosis (``calibrax diagnose`` into STORE.diagnosis/), its figures copied into
-    the report's folder; "" when there is none."""
-    import shutil
+def build_single_file_report(store: str | Path, out_file: str | Path | None = None) -> Path:
+    """Write the report as one HTML file (default ``STORE.report.html``) with every figure embedded
+    as a PNG data URI, so that it opens with no other file beside it (to mail or attach); return its
+    path. The figures are drawn in a temporary folder; the file is written whole or not at all."""
+    data = load_campaign(store)
+    out = Path(out_file) if out_file is not None else data.store.with_suffix(".report.html")
+    if out.is_dir():
+        out = out / data.store.with_suffix(".report.html").name
+    out.parent.mkdir(parents=True, exist_ok=True)
+    diagnosis = _diagnosis(data.store)
+    embedded = {figure.name: figure for figure in _diagnosis_figures(data.store)}
+    with tempfile.TemporaryDirectory(prefix="calibrax-report-") as tmp:
+        files, statement = _figures(data, Path(tmp))
+        files = {key: [n for n in names if n.endswith(".png")] for key, names in files.items()}
+        embedded.update({n: Path(tmp) / n for names in files.values() for n in names})
+        page = _html(data, files, statement, diagnosis, url=lambda name: _data_uri(embedded[name]) if name in embedded else name)
+    partial = out.with_name(f".{out.name}.tmp")
+    partial.write_text(page, encoding="utf-8")
+    os.replace(partial, out)
+    return out
 
+
+def _figures(data: CampaignData, folder: Path) -> tuple[dict[str, list[str]], str]:
+    """Draw every figure into ``folder``: {figure key: its file names}, and the surrogate's
+    statement of the parameter ranges predicted within the noise."""
+    files: dict[str, list[str]] = {}
+    files["cartography"] = figures.cartography(data, folder)
+    files["yield_loci"] = figures.yield_loci(data, folder)
+    files["shear_curves"] = figures.shear_curves(data, folder)
+    files["surrogate"], statement = figures.surrogate_maps(data, folder)
+    files["convergence"] = figures.convergence(data, folder)
+    return files, statement
+
+
+def _data_uri(path: Path) -> str:
+    """A figure file as a data URI (PNG or SVG)."""
+    mime = {".png": "image/png", ".svg": "image/svg+xml"}[path.suffix]
+    return f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode('ascii')}"
+
+
+def _diagnosis(store: Path) -> str:
+    """The store's diagnosis summary (``calibrax diagnose`` into STORE.diagnosis/); "" when there is none."""
+    summary = Path(store).with_suffix(".diagnosis") / "diagnosis.md"
+    return summary.read_text(encoding="utf-8") if summary.is_file() else ""
+
+
+def _diagnosis_figures(store: Path) -> list[Path]:
+    """The diagnosis' figure files its summary refers to (PNG and SVG); none without a diagnosis."""
     folder = Path(store).with_suffix(".diagnosis")
-    summary = folder / "diagnosis.md"
-    if not summary.is_file():
-        return ""
-    for figure in folder.glob("diagnosis_*.*"):
-        if figure.suffix in (".png", ".svg"):
-            shutil.copy(figure, out / figure.name)
-    return summary.read_text(encoding="utf-8")
+    if not (folder / "diagnosis.md").is_file():
+        return []
+    return sorted(f for f in folder.glob("diagnosis_*.*") if f.suffix in (".png", ".svg"))
 
 
 def _best_line(data: CampaignData) -> str:
@@ -101,7 +143,10 @@ def _markdown(data: CampaignData, statement: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _html(data: CampaignData, files: dict[str, list[str]], statement: str, diagnosis: str = "") -> str:
+def _html(data: CampaignData, files: dict[str, list[str]], statement: str, diagnosis: str = "",
+          url: Callable[[str], str] = str) -> str:
+    """The report page; ``url`` turns a figure's file name into the address the page uses (the name
+    itself beside the page, or a data URI in a single file). A figure without an SVG gets no SVG link."""
     e = html.escape
     cfg = data.config
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>calibrax: {e(cfg['name'])}</title>",
@@ -119,8 +164,8 @@ def _html(data: CampaignData, files: dict[str, list[str]], statement: str, diagn
         png = [n for n in names if n.endswith(".png")]
         if png:
             svg = [n for n in names if n.endswith(".svg")]
-            link = f" (<a href='{e(svg[0])}'>SVG</a>)" if svg else ""
-            parts.append(f"<figure><img src='{e(png[0])}' alt='{e(key)}'><figcaption>{e(CAPTIONS[key])}{link}"
+            link = f" (<a href='{e(url(svg[0]))}'>SVG</a>)" if svg else ""
+            parts.append(f"<figure><img src='{e(url(png[0]))}' alt='{e(key)}'><figcaption>{e(CAPTIONS[key])}{link}"
                          "</figcaption></figure>")
     parts.append("<h2>Points</h2><table><tr>" + "".join(f"<th>{e(h)}</th>" for h in _header(data)) + "</tr>")
     for row in _rows(data):
@@ -133,15 +178,16 @@ def _html(data: CampaignData, files: dict[str, list[str]], statement: str, diagn
             parts.append(f"<details><summary>point {p.id} sim {i} [{e(kind)}]: {e(reason)}</summary>"
                          f"<pre>{e(tail or '(no log)')}</pre></details>")
     if diagnosis:
-        parts.append(_markdown_html(diagnosis))
+        parts.append(_markdown_html(diagnosis, url))
     if data.experiment is not None:
         parts.append(f"<h2>Experiment</h2><p>{e(data.experiment.name)}</p><pre>{e(data.experiment.source)}</pre>")
     parts.append("</body></html>")
     return "\n".join(parts)
 
 
-def _markdown_html(text: str) -> str:
-    """The little Markdown a diagnosis summary uses (headings, tables, images, bold, paragraphs) as HTML."""
+def _markdown_html(text: str, url: Callable[[str], str] = str) -> str:
+    """The little Markdown a diagnosis summary uses (headings, tables, images, bold, paragraphs) as
+    HTML; an image's file name goes through ``url`` as the page's figures do."""
     import re
 
     e = html.escape
@@ -167,7 +213,7 @@ def _markdown_html(text: str) -> str:
             level = min(len(line) - len(line.lstrip("#")) + 1, 4)
             out.append(f"<h{level}>{inline(line.lstrip('#').strip())}</h{level}>")
         elif image:
-            out.append(f"<figure><img src='{e(image.group(2))}' alt='{e(image.group(1))}'></figure>")
+            out.append(f"<figure><img src='{e(url(image.group(2)))}' alt='{e(image.group(1))}'></figure>")
         elif line.startswith("*") and line.endswith("*") and not line.startswith("**"):
             out.append(f"<p><i>{e(line.strip('*'))}</i></p>")
         elif line.strip():
