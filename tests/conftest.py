@@ -1,7 +1,7 @@
 """Shared fixtures: the analytic TEST DOUBLE campaign set-up (core tests only), the session's bank of
 real-engine shear tests (tests/bank.py), and the test tiers.
 
-The tiers (README, "Tests"):
+The tiers (docs/how-to/run-the-tests.md):
 
 - ``pytest --tier fast`` (``make test``): every test not marked ``slow``; each of the three engines
   still runs a whole shear test (the bank's smoke tests), and the session fails if one of them did
@@ -256,5 +256,5 @@ def _check_every_engine_ran(session, folder: Path, exitstatus: int) -> None:
         write(f"{engine}: {len(times)} shear test(s), {sum(times):.0f} s of engine wall time")
     if missing and exitstatus in (pytest.ExitCode.OK, pytest.ExitCode.TESTS_FAILED):
         write(f"ERROR: the {config.getoption('--tier')} tier finished no real shear test on {', '.join(missing)}: "
-              "every tier must run each engine (the smoke tests of tests/bank.py; README, Tests)")
+              "every tier must run each engine (the smoke tests of tests/bank.py; docs/how-to/run-the-tests.md)")
         session.exitstatus = pytest.ExitCode.TESTS_FAILED

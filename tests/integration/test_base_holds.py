@@ -22,7 +22,7 @@ from calibrax.core.sheartest import BASE_SPIN_SLIP_FRACTION
 from tests.bank import declare_short, declare_tiny
 
 #: seeds per base friction: three on numba_dem; two on LIGGGHTS, whose tiny test takes about twice
-#: as long (quick, three seeds each: README, "What holds the bed")
+#: as long (quick, three seeds each: docs/explanation/shear-test.md, "What holds the bed")
 SEEDS = {"numba_dem": (0, 1, 2), "liggghts": (0, 1)}
 BACKENDS = tuple(SEEDS)
 

@@ -89,7 +89,7 @@ def test_shear_test_gives_four_finite_peaks(shear_run):
 @pytest.mark.slow
 @pytest.mark.bank(TINY)
 def test_the_tiny_test_gives_a_plausible_friction(bank):
-    """With a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, README), so
+    """With a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, docs/explanation/seed-noise.md), so
     its sign says nothing about the engine; the mean peak τ/σ does (numba_dem: 0.68 ± 0.11)."""
     result = bank.result(TINY)
     assert result.is_finite()

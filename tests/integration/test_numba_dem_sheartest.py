@@ -81,7 +81,7 @@ def test_four_finite_peaks_and_a_plausible_friction(tiny_result) -> None:
     assert np.all(res.peak_shear_stress > 0)
     locus = res.yield_locus()
     assert np.isfinite(locus.aif_deg) and np.isfinite(locus.cohesion)
-    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37°, README), so its sign says
+    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37°, docs/explanation/seed-noise.md), so its sign says
     # nothing about the engine; the mean peak τ/σ does (Table 1: 0.68 ± 0.11 over 8 seeds)
     ratio = float(np.mean(res.peak_shear_stress / res.peak_normal_stress))
     assert 0.3 < ratio < 1.2, ratio

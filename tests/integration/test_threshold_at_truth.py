@@ -3,7 +3,7 @@ own parameters (tiny, E = 20 GPa, μs = 0.35) score within each metric's thresho
 
 Three seeds here check the bookkeeping (a stated threshold at 95 %, the features the robust metric
 was built from, the seeds kept apart from the experiment's); the coverage itself is measured over
-more seeds by ``benchmarks/seed_noise.py`` (README, "How noisy each preset is").
+more seeds by ``benchmarks/seed_noise.py`` (docs/explanation/noise-threshold.md, "The thresholds at the truth").
 """
 
 from __future__ import annotations

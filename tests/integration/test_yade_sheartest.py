@@ -102,7 +102,7 @@ def test_yield_locus_is_finite_and_the_friction_plausible(result):
     res, _ = result
     locus = res.yield_locus()
     assert math.isfinite(locus.aif_deg) and math.isfinite(locus.cohesion)
-    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, README), so
+    # with a base that holds, one tiny test's AIF is seed noise (s.d. 37° on numba_dem, docs/explanation/seed-noise.md), so
     # its sign says nothing about the engine; the mean peak τ/σ does
     ratio = float(np.mean(res.peak_shear_stress / res.peak_normal_stress))
     assert 0.3 < ratio < 1.2, ratio

@@ -95,7 +95,7 @@ def test_a_store_of_another_campaign_is_refused(tmp_path):
 
 
 def test_procedure_mapping_overrides_fields_of_its_preset(tmp_path):
-    """``cell.procedure: {preset, field: value}`` (as the README documents) changes those fields
+    """``cell.procedure: {preset, field: value}`` (as docs/reference/campaign-file.md documents) changes those fields
     and keeps the preset's others; a bad field value names its key."""
     from calibrax.core.config import load_config
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from calibrax.core.studies.campaign import point_spec
 from calibrax.core.data.experiment import Experiment
+from calibrax.core.running.executor import Executor
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.core.studies.study import StudyCase, run_study
@@ -224,7 +225,7 @@ def _design_arrays(points: list[DesignPoint], features: list[list[dict[str, floa
             feats, which)
 
 
-def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor, *, backend: str | None = None,
+def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor: Executor, *, backend: str | None = None,
              budget: Budget | None = None, fit_on: tuple[str, ...] | str = gaps.DEFAULT_FIT, seed: int = 0,
              asked: bool = False,
              capabilities: frozenset[str] | None = None) -> Diagnosis:

@@ -189,7 +189,7 @@ def shear_curves(data: CampaignData, folder: Path) -> list[str]:
     axes[0][0].legend(fontsize=7)
     if data.experiment is None or not data.experiment.curves:
         fig.text(0.5, 0.01, "the experiment has no τ curves (only its peaks): a curves CSV adds them "
-                 "(README, Experiment files)", ha="center", fontsize=8, color="0.3")
+                 "(docs/reference/experiment-files.md)", ha="center", fontsize=8, color="0.3")
     fig.suptitle(f"Shear steps of the best point {best.id} (seed {result.provenance.seed}, {result.provenance.backend})")
     return save_figure(fig, folder, "shear_curves")
 
@@ -321,7 +321,7 @@ def _identifiability(data: CampaignData, answer) -> str:
                        f"{_cell_words(data)} the experiment's replicate "
                        "spread and one simulation's seed noise leave most of the box as likely as the truth. More "
                        "replicates in the experiment, more seeds per point (seeds_per_point) or a less noisy "
-                       "preset narrow it (README, How noisy each preset is); more points alone do not.")
+                       "preset narrow it (docs/explanation/seed-noise.md); more points alone do not.")
     return text + (" A long, thin region is a valley of near-equivalent couples: the shear test alone cannot tell "
                    "them apart.")
 

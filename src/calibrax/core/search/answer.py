@@ -83,7 +83,7 @@ class Answer:
             return (f"No parameter set in the box is plausible: the model rules out every point reaching the noise "
                     f"threshold d = {self.threshold:.3g} (lowest predicted d = {self.predicted:.3g} at the "
                     "recommendation). The model cannot reach the experiment here: widen the bounds, or look for "
-                    "the missing effect (README, sim-to-real gap).")
+                    "the missing effect (calibrax diagnose: docs/tutorials/diagnose-the-gap.md).")
         parts = []
         for name, value in self.params.items():
             lo, hi = self.ranges[name]

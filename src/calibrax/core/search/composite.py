@@ -26,7 +26,7 @@ the expected distance and to every sample the acquisition scores; the search and
 recommendation keep away from where the engine crashed (the distance model gives such a point a
 penalty distance instead).
 
-Measured on benchmarks/calibration.py (README, "The answer, not the best point").
+Measured on benchmarks/calibration.py (docs/explanation/answer.md, "How many simulations, measured").
 """
 
 from __future__ import annotations

@@ -143,4 +143,4 @@ def locus_warning(normal_stress: np.ndarray, peak_shear_stress: np.ndarray) -> s
     pairs = ", ".join(f"{t:.0f} Pa at {s / 1e3:g} kPa" for s, t in zip(sigma[order], tau[order]))
     what = "the peaks do not rise with σ" if falls else "the locus falls"
     return (f"{what} ({pairs}; AIF = {aif:.1f}°): one test's locus at this fidelity is mostly seed noise; "
-            "pool seeds (seeds_per_point) or use a finer cell (README, How noisy each preset is)")
+            "pool seeds (seeds_per_point) or use a finer cell (docs/explanation/seed-noise.md)")

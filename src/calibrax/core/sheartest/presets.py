@@ -25,8 +25,8 @@ PROCEDURES: dict[str, Procedure] = {
 #: at least 0.3 rad, at most 1 rad): the former fixed preshears of 0.12–0.15 rad ended inside the
 #: transient (at tiny τ/σ fell from 0.94 to a steady 0.55 over the first 0.45 rad of one preshear),
 #: and with the blades riding on the bed's top (see INSERTION_STRESS_FRACTION) that made most of the
-#: seed scatter. The shear windows of 0.3 rad hold the peaks that 0.12 rad cut off (README, How
-#: noisy each preset is).
+#: seed scatter. The shear windows of 0.3 rad hold the peaks that 0.12 rad cut off 
+#: (docs/explanation/seed-noise.md).
 STEADY_PRESHEAR = {"preshear_rotation": 0.30, "preshear_max_rotation": 1.0, "steady_window": 0.1,
                    "steady_tolerance": 0.05}
 FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
