@@ -76,6 +76,11 @@ class TruthEmulator:
     def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]]) -> "TruthEmulator":
         params = effect_parameters(model)
         columns = tuple(params)
+        unvaried = [c for c in columns if not any(abs(r["effects"].get(c, params[c].off) - params[c].off) > 0
+                                                  for r in rows)]
+        if unvaried:
+            raise ConfigError("--design", f"the design varies none of {unvaried}: it was made for other effects "
+                              "than the model's candidates; remake it (python benchmarks/diagnosis.py make-design)")
         u, g = cls._inputs(model, params, columns, [r["params"] for r in rows], [r["effects"] for r in rows])
         phi = _basis(u, g)
         y = np.array([[r["features"].get(n, math.nan) for n in FEATURES] for r in rows], dtype=float)
