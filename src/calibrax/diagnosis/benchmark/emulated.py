@@ -46,8 +46,11 @@ DEFAULT_DESIGN = Path(__file__).parent / "data" / "design-tiny.json"
 FEATURES = tuple(n for g in gaps.GROUPS.values() for n in g)
 
 
-def effect_parameters(model: BenchmarkModel) -> dict[str, EffectParameter]:
-    """Every effect parameter the design varies, candidates and the unlisted rolling friction."""
+def effect_parameters(model: BenchmarkModel, unlisted: bool = True) -> dict[str, EffectParameter]:
+    """Every effect parameter the design varies: every registered effect's and the unlisted
+    rolling friction's (the benchmark's design), or only the model's candidates'."""
+    if not unlisted:
+        return {e.parameters[0].name: e.parameters[0] for e in model.effects()}
     out = {e.parameters[0].name: e.parameters[0] for e in model.effects_all()}
     rf = RollingFriction(off=model.spec.material.rolling_friction)
     out[rf.parameters[0].name] = rf.parameters[0]
@@ -73,8 +76,10 @@ class TruthEmulator:
     n_rows: int
 
     @classmethod
-    def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]]) -> "TruthEmulator":
-        params = effect_parameters(model)
+    def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]], unlisted: bool = True) -> "TruthEmulator":
+        """Fit to a design's rows; ``unlisted``: they include the rolling-friction block and every
+        registered effect (the benchmark's design), else only the model's candidates (a diagnosis design)."""
+        params = effect_parameters(model, unlisted)
         columns = tuple(params)
         unvaried = [c for c in columns if not any(abs(r["effects"].get(c, params[c].off) - params[c].off) > 0
                                                   for r in rows)]
@@ -222,27 +227,6 @@ def run_emulated(truth: TruthEmulator, labels: list[CaseLabel], seed: int, noise
         if progress:
             progress(i + 1, len(labels))
     return answers
-
-
-def detectability(truth: TruthEmulator, replicates: int = 3) -> str:
-    """How far each hidden truth moves the features at the model's answer, in units of the s.d.
-    of a difference between two means of ``replicates`` simulations' seed noise: the signal a
-    diagnosis has to work with before any noise of its own design. A markdown table."""
-    model = truth.model
-    centre = dict(model.centre)
-    sd = np.sqrt(np.diag(truth.cov)) * math.sqrt(2.0 / replicates)
-    base = truth.mean(centre, {})
-    truths = [(p, lvl, {p: v}) for p, levels in MAGNITUDES.items() for lvl, v in levels.items()]
-    truths += [("unlisted", "rolling friction", {"rolling_friction": ROLLING_FRICTION_TRUTH}),
-               ("unlisted", "two effects", dict(TWO_EFFECTS))]
-    short = {n: n.replace("peak_ratio_", "peak ").replace("_", " ") for n in FEATURES}
-    lines = [f"Signal of each hidden truth at the model's answer: (mean with − mean without) / s.d. of a difference "
-             f"of two {replicates}-seed means, from the truth emulator ({truth.n_rows} simulations).", "",
-             "| truth | " + " | ".join(short[n] for n in FEATURES) + " | RMS |", "|---" * (len(FEATURES) + 2) + "|"]
-    for name, level, effects in truths:
-        z = (truth.mean(centre, effects) - base) / sd
-        lines.append(f"| {name} {level} | " + " | ".join(f"{v:+.1f}" for v in z) + f" | {np.sqrt(np.mean(z ** 2)):.1f} |")
-    return "\n".join(lines) + "\n"
 
 
 def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str) -> dict[str, Any]:
