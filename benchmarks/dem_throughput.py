@@ -9,8 +9,12 @@ Workloads (same particles, radius, material, time step and cylinder for every en
     script ``dem_throughput_yade.py``), runs ``--warmup`` untimed steps (contact histories), then
     ``--steps`` timed steps. LIGGGHTS uses analytic walls (``wall/gran … primitive``) like
     numba_dem, YADE the facet cell of the yade backend.
-  * ``preshear`` (numba_dem only): the consolidated bed under the bladed head, turning at the
-    preset's rotation rate under the preshear stress.
+  * ``preshear``: the consolidated bed under the bladed head, turning at the preset's rotation rate
+    under the preshear stress, from numba_dem's consolidated state (particles, head height, angle
+    and speed). LIGGGHTS runs it from the same state with the liggghts backend's own script
+    (``calibrax_liggghts.script.write_inputs`` with a ``BenchStart``: the same STL head, base and
+    ribs meshes, analytic cylinder, materials and head servo as its shear test), ``--warmup`` untimed
+    steps, then ``--steps`` timed.
 
 The engines are timed in ``--rounds`` interleaved rounds (each round times every engine once, so
 that they share the machine's load); the table gives the median over rounds of the µs per
@@ -38,7 +42,7 @@ import numpy as np
 
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax_numba_dem.engine import DEMSystem, numba_threads
-from calibrax_numba_dem.layout import H_OMEGA, P_USE_HEAD
+from calibrax_numba_dem.layout import H_OMEGA, H_PHI, H_VZ, H_Z, P_USE_HEAD
 from calibrax_numba_dem.procedure import RunLog, ShearTestDriver, new_logger
 
 YADE_SCRIPT = Path(__file__).with_name("dem_throughput_yade.py")
@@ -116,12 +120,30 @@ def liggghts_inputs(spec: ShearCellSpec, bed: DEMSystem, workdir: Path, warmup: 
     (workdir / "in.bench").write_text("\n".join(script) + "\n", encoding="ascii")
 
 
-def time_liggghts(exe: str, spec: ShearCellSpec, bed: DEMSystem, warmup: int, steps: int) -> tuple[float, str]:
-    """(µs per particle-step of LIGGGHTS (1 rank) on ``bed`` from its loop time of the timed run,
-    LIGGGHTS' version line)."""
+def liggghts_preshear_inputs(spec: ShearCellSpec, sheared: DEMSystem, workdir: Path, warmup: int,
+                             steps: int) -> str:
+    """Write the preshear workload for LIGGGHTS into ``workdir`` with the liggghts backend's own
+    script generation, from numba_dem's state ``sheared``; returns the script's file name."""
+    from calibrax_liggghts.script import SCRIPT_NAME, BenchStart, write_inputs
+
+    h = sheared.head
+    write_inputs(spec, workdir, BenchStart(radii=sheared.rad, x=sheared.x, v=sheared.v, w=sheared.w,
+                                           head_z=float(h[H_Z]), head_phi=float(h[H_PHI]),
+                                           head_vz=float(h[H_VZ]), warmup=warmup, steps=steps))
+    return SCRIPT_NAME
+
+
+def time_liggghts(exe: str, spec: ShearCellSpec, bed: DEMSystem, warmup: int, steps: int,
+                  preshear: bool = False) -> tuple[float, str]:
+    """(µs per particle-step of LIGGGHTS (1 rank) on ``bed`` (the settled bed, or with ``preshear``
+    the sheared state) from its loop time of the timed run, LIGGGHTS' version line)."""
     with tempfile.TemporaryDirectory() as tmp:
-        liggghts_inputs(spec, bed, Path(tmp), warmup, steps)
-        proc = subprocess.run([exe, "-in", "in.bench", "-echo", "none", "-log", "none"], cwd=tmp,
+        if preshear:
+            script = liggghts_preshear_inputs(spec, bed, Path(tmp), warmup, steps)
+        else:
+            liggghts_inputs(spec, bed, Path(tmp), warmup, steps)
+            script = "in.bench"
+        proc = subprocess.run([exe, "-in", script, "-echo", "none", "-log", "none"], cwd=tmp,
                               capture_output=True, text=True, errors="replace")
     if proc.returncode != 0:
         raise RuntimeError("LIGGGHTS failed:\n" + proc.stdout[-2000:] + proc.stderr[-2000:])
@@ -198,13 +220,15 @@ def load() -> str:
     return " ".join(f"{a:.2f}" for a in os.getloadavg()) if hasattr(os, "getloadavg") else "?"
 
 
-def report(rows: dict[str, list[float]], ref: str | None) -> None:
-    """Print the medians over rounds and the median per-round ratio to ``ref``."""
+def report(rows: dict[str, list[float]]) -> None:
+    """Print the medians over rounds and the median per-round ratio to LIGGGHTS on the same
+    workload."""
     print(f"{'engine':30s} {'µs/particle-step':>17s} {'per round':>26s} {'/ LIGGGHTS':>11s}")
     for name, vals in rows.items():
         ratio = ""
-        if ref and name.endswith("bed") and rows.get(ref):
-            ratio = f"{statistics.median(a / b for a, b in zip(vals, rows[ref])):11.2f}"
+        ref = rows.get("LIGGGHTS 1 rank " + name.rsplit(" ", 1)[-1])
+        if ref and not name.startswith("LIGGGHTS"):
+            ratio = f"{statistics.median(a / b for a, b in zip(vals, ref)):11.2f}"
         per = " ".join(f"{v:.3f}" for v in vals)
         print(f"{name:30s} {statistics.median(vals):17.3f} {per:>26s} {ratio}")
 
@@ -249,12 +273,16 @@ def main() -> None:
         if sheared is not None:
             for t in threads:
                 rows.setdefault(f"numba_dem {t} thr preshear", []).append(time_numba(sheared, args.steps, t))
+            if "liggghts" in engines:
+                us, versions["liggghts"] = time_liggghts(engines["liggghts"], spec, sheared, args.warmup,
+                                                         args.steps, preshear=True)
+                rows.setdefault("LIGGGHTS 1 rank preshear", []).append(us)
     print(f"load average after: {load()}" + "".join(f"; {v}" for v in versions.values()))
     busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
     if busy > 0.5:
         print(f"note: the machine was busy (load average {busy:.1f} on {os.cpu_count()} cores): timings are noisy, "
               "compare the per-round ratios; multi-thread timings are meaningless when the load fills the cores")
-    report(rows, "LIGGGHTS 1 rank bed" if "liggghts" in engines else None)
+    report(rows)
     if len(threads) > 1:
         a, b = threads[0], threads[-1]
         for w in ("bed", "preshear"):

@@ -41,7 +41,7 @@ from calibrax.errors import SpecError
 
 from . import mesh as meshes
 
-__all__ = ["num", "integer", "ScriptPlan", "write_inputs", "SCRIPT_NAME", "DATA_NAME"]
+__all__ = ["num", "integer", "ScriptPlan", "BenchStart", "write_inputs", "SCRIPT_NAME", "DATA_NAME"]
 
 SCRIPT_NAME = "in.calibrax"
 DATA_NAME = "particles.data"
@@ -87,6 +87,26 @@ class ScriptPlan:
     head_area: float
 
 
+@dataclass(frozen=True)
+class BenchStart:
+    """A state to start from instead of the pour, for ``benchmarks/dem_throughput.py``: the
+    particles (SI arrays: radii (N,), positions, velocities, angular velocities (N, 3)) and the
+    head (height of its lower face above the base, m; angle of its blades, rad; vertical speed,
+    m/s). The script then loads them, puts the head there under the servo at the preshear σ,
+    turning at the rotation rate, and runs ``warmup`` then ``steps`` steps (two ``run``s, timed by
+    LIGGGHTS' "Loop time")."""
+
+    radii: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    head_z: float
+    head_phi: float
+    head_vz: float
+    warmup: int
+    steps: int
+
+
 def _matrix(values: dict[tuple[int, int], float], default: float, key: str) -> str:
     out = []
     for i in range(1, NTYPES + 1):
@@ -102,10 +122,12 @@ def _steps(duration: float, dt: float, multiple: int) -> int:
     return max(1, n) * multiple
 
 
-def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
+def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = None) -> ScriptPlan:
     """Write the data file, the STL meshes and the input script of ``spec`` into ``workdir``.
 
-    ``spec`` must already be validated. Returns the :class:`ScriptPlan` the parser uses.
+    ``spec`` must already be validated. Returns the :class:`ScriptPlan` the parser uses. With
+    ``bench``, the script is the throughput benchmark's preshear workload instead of the shear test
+    (the same cell, materials, head and servo; see :class:`BenchStart`).
     """
     g, m, p, n = spec.geometry, spec.material, spec.procedure, spec.numerics
     workdir = Path(workdir)
@@ -117,10 +139,18 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     per = max(1, int(round(n.sample_interval / dt)))
 
     # ---------------------------------------------------------------- particles (numba_dem's)
-    radii, x, v = initial_packing(spec)
+    if bench is None:
+        radii, x, v = initial_packing(spec)
+        w = np.zeros_like(v)
+        ptype = T_POUR
+    else:
+        radii, x, v, w = (np.asarray(a, dtype=float) for a in (bench.radii, bench.x, bench.v, bench.w))
+        ptype = T_PART
     r_max = float(radii.max())
     h0 = float(np.max(x[:, 2] + radii))
     z_park = h0 + g.blade_height + 2.0 * d  # head's parking height: blade tips above the column
+    if bench is not None:
+        z_park = float(bench.head_z)  # the head where the benchmark's bed has it
     z_box = z_park + 4.0 * d
     half = 1.1 * rc + 2.0 * r_max
     lines = ["calibrax LIGGGHTS particles (generated)", "",
@@ -128,11 +158,12 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
              f"{num(-half)} {num(half)} xlo xhi", f"{num(-half)} {num(half)} ylo yhi",
              f"{num(-2.0 * r_max)} {num(z_box)} zlo zhi", "", "Atoms", ""]
     for i in range(len(radii)):
-        lines.append(f"{integer(i + 1)} {integer(T_POUR)} {num(2.0 * radii[i], 'radius')} "
+        lines.append(f"{integer(i + 1)} {integer(ptype)} {num(2.0 * radii[i], 'radius')} "
                      f"{num(m.density, 'material.density')} {num(x[i, 0])} {num(x[i, 1])} {num(x[i, 2])}")
     lines += ["", "Velocities", ""]
     for i in range(len(radii)):
-        lines.append(f"{integer(i + 1)} {num(v[i, 0])} {num(v[i, 1])} {num(v[i, 2])} 0 0 0")
+        lines.append(f"{integer(i + 1)} {num(v[i, 0])} {num(v[i, 1])} {num(v[i, 2])} "
+                     f"{num(w[i, 0])} {num(w[i, 1])} {num(w[i, 2])}")
     (workdir / DATA_NAME).write_text("\n".join(lines) + "\n", encoding="ascii")
 
     # ---------------------------------------------------------------- meshes
@@ -201,11 +232,13 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"pair_style gran {model}")
     add("pair_coeff * *")
     add(f"timestep {num(dt)}")
-    add(f"fix gravi all gravity {num(GRAVITY * POUR_GRAVITY)} vector 0.0 0.0 -1.0")
+    add(f"fix gravi all gravity {num(GRAVITY * (POUR_GRAVITY if bench is None else 1.0))} vector 0.0 0.0 -1.0")
     add(f"fix base all mesh/surface file base.stl type {integer(T_BASE)}")
     if g.base_ribs > 0:
         add(f"fix ribs all mesh/surface file ribs.stl type {integer(T_BASE)}")
-    add(f"fix head all mesh/surface/stress file head.stl type {integer(T_HEAD)} move 0.0 0.0 {num(z_park)}")
+    # (the benchmark's head turned by its angle about the axis: the mesh has blade k at 2πk/n_blades)
+    turn = "" if bench is None else f"rotate axis 0.0 0.0 1.0 angle {num(math.degrees(bench.head_phi % (2.0 * math.pi)))} "
+    add(f"fix head all mesh/surface/stress file head.stl type {integer(T_HEAD)} {turn}move 0.0 0.0 {num(z_park)}")
     add(f"fix walls all wall/gran {model} mesh n_meshes {integer(len(mesh_ids))} meshes {' '.join(mesh_ids)}")
     # the lateral wall is LIGGGHTS' exact analytic cylinder, as numba_dem's: a polygon mesh with a chord
     # sag of 1 % of r (9 µm in ``quick``) is corrugated on the contacts' scale (Hertz overlap at 15 kPa
@@ -251,6 +284,37 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     add(f"thermo {integer(_steps(0.01, dt, per))}")
     add("thermo_modify lost error norm no")
     add(f'print "CALIBRAX start particles {integer(len(radii))}"')
+
+    def servo(v0: float) -> None:
+        # the dynamic head from speed v0 (m/s) at this step, see the approach below
+        window = max(2, int(round(2.0 * tau_ref / dt)))
+        add("variable s0 equal ${stp}")
+        add("variable z0 equal ${zh}")
+        add("variable nst equal step-v_s0")
+        add("variable err equal v_fup-v_ftgt")
+        add("fix integ all ave/time 1 1 1 v_err ave running")
+        add("variable hdz equal v_zh-v_z0")
+        add(f"fix hzw all ave/time 1 1 1 v_hdz ave window {integer(window)}")
+        add(f"variable hvref equal (v_hdz-f_hzw)*{num(2.0 / (window * dt))}")
+        add("fix hyr all ave/time 1 1 1 v_hvref ave running")
+        clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
+        add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")
+        add(f"variable vraw equal {num(v0)}+(f_integ*v_nst*{num(dt)}"
+            f"-{num(head_damp)}*(v_hdz-f_hyr*v_nst*{num(dt)}))/{num(head_mass)}")
+        add(f"variable vz equal {clamp}")
+
+    if bench is not None:
+        # ------------------------------------------------------------ benchmark: preshear from ``bench``
+        add(f"variable ftgt equal {num(f_pre)}")
+        add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
+        servo(bench.head_vz)
+        add(f"fix rec all ave/time 1 {integer(per)} {integer(per)} v_fup v_tres file bench.txt")
+        add(f"run {integer(bench.warmup)}")
+        add(f"run {integer(bench.steps)}")
+        add('print "CALIBRAX done ${stp}"')
+        (workdir / SCRIPT_NAME).write_text("\n".join(s) + "\n", encoding="ascii")
+        return ScriptPlan(dt=dt, sample_steps=per, steps=(), n_particles=len(radii), z_park=z_park,
+                          vessel_radius=rc, head_area=area)
 
     # ---------------------------------------------------------------- pour (numba_dem's)
     t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (GRAVITY * POUR_GRAVITY))
@@ -321,21 +385,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path) -> ScriptPlan:
     # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
     # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v
     # for a steady drift (a window mean lags a ramp by W/2 steps); W Δt = 2 τ_ref
-    window = max(2, int(round(2.0 * tau_ref / dt)))
-    add("variable s0 equal ${stp}")
-    add("variable z0 equal ${zh}")
-    add("variable nst equal step-v_s0")
-    add("variable err equal v_fup-v_ftgt")
-    add("fix integ all ave/time 1 1 1 v_err ave running")
-    add("variable hdz equal v_zh-v_z0")
-    add(f"fix hzw all ave/time 1 1 1 v_hdz ave window {integer(window)}")
-    add(f"variable hvref equal (v_hdz-f_hzw)*{num(2.0 / (window * dt))}")
-    add("fix hyr all ave/time 1 1 1 v_hvref ave running")
-    clamp = ("v_vraw+(v_vraw<-v_vlim)*(-v_vlim-v_vraw)+(v_vraw>v_vlim)*(v_vlim-v_vraw)")
-    add(f"variable vlim equal {num(SHEAR_SPEED_LIMIT)}")
-    add(f"variable vraw equal {num(-APPROACH_SPEED)}+(f_integ*v_nst*{num(dt)}"
-        f"-{num(head_damp)}*(v_hdz-f_hyr*v_nst*{num(dt)}))/{num(head_mass)}")
-    add(f"variable vz equal {clamp}")
+    servo(-APPROACH_SPEED)
     # back onto whole sample intervals (the approach ran in eighths): every later run is a whole
     # number of them, so the recording fixes sample on the same steps as the parser expects
     add(f"variable pad equal {integer(per)}-step%{integer(per)}")

@@ -25,7 +25,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .contact import clear_history, contact, has_history
+from .contact import clear_history, contact
 from .geometry import element_directions, wall_forces
 from .layout import (H_ACC_BASE, H_ACC_F, H_ACC_N, H_ACC_T, H_SIZE, H_TIME, P_BETA, P_COH, P_DT,
                      P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SIZE, P_SKIN,
@@ -103,8 +103,7 @@ def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
             rj = rad[j]
             rsum = ri + rj
             if r2 >= rsum * rsum:
-                if has_history(hist, rhist, p):
-                    clear_history(hist, rhist, p)
+                clear_history(hist, rhist, p)
                 for c in range(PF_SIZE):
                     pf[p, c] = 0.0
                 continue
