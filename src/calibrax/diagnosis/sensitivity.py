@@ -5,7 +5,8 @@ diagnosis's own DEM design is run around it (resumable, :func:`calibrax.diagnosi
 replicates at the point, Sobol points over its plausible region, each candidate effect over its
 range) and a response surface is fitted to it (:class:`~calibrax.diagnosis.benchmark.emulated.TruthEmulator`:
 each feature quadratic in the calibrated parameters, each effect and their products, one
-simulation's seed noise from the residuals). From the surface, per feature:
+simulation's seed noise from the residuals of the points without an effect, the replicates and
+the baseline: an effect's lack of fit is not the test's noise). From the surface, per feature:
 
 - its value at the point and one simulation's seed s.d.;
 - its shift for a step of 10 % of each calibrated parameter's searched range (log-scaled where
@@ -128,7 +129,8 @@ def table_of(truth, replicates: int = 3) -> Sensitivity:
 
     model = truth.model
     names, groups, weights = _combinations(FEATURES)
-    sd = np.sqrt(np.diag(weights @ truth.cov @ weights.T))
+    cov = truth.plain_cov if truth.plain_cov is not None else truth.cov
+    sd = np.sqrt(np.diag(weights @ cov @ weights.T))
     noise = sd / math.sqrt(replicates)
     base = weights @ truth.mean(model.centre, {})
     columns, kinds, z = [], [], []

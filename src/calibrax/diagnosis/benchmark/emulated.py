@@ -57,6 +57,10 @@ def effect_parameters(model: BenchmarkModel, unlisted: bool = True) -> dict[str,
     return out
 
 
+#: rows without any effect needed to estimate the seed noise at the model's point from them alone
+PLAIN_ROWS_MIN = 6
+
+
 def _basis(u: np.ndarray, g: np.ndarray) -> np.ndarray:
     n, d = u.shape
     cols = [np.ones((n, 1)), u, np.column_stack([u[:, i] * u[:, j] for i in range(d) for j in range(i, d)]), g, g ** 2]
@@ -72,8 +76,10 @@ class TruthEmulator:
     columns: tuple[str, ...]
     params: dict[str, EffectParameter]
     coef: np.ndarray          # (p, F)
-    cov: np.ndarray           # (F, F) one simulation's residual covariance
+    cov: np.ndarray           # (F, F) one simulation's residual covariance, all rows
     n_rows: int
+    plain_cov: np.ndarray | None = None   # (F, F) the same over the rows without any effect (the seed noise
+                                          # at the model's point; the effects' lack of fit left out)
 
     @classmethod
     def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]], unlisted: bool = True) -> "TruthEmulator":
@@ -97,7 +103,10 @@ class TruthEmulator:
         resid = y[full] - phi[full] @ coef
         dof = max(int(full.sum()) - np.linalg.matrix_rank(phi[full]), 1)
         cov = resid.T @ resid / dof
-        return cls(model, columns, params, coef, cov, len(rows))
+        plain = ~np.any(g[full] != 0.0, axis=1)
+        plain_cov = (resid[plain].T @ resid[plain] / plain.sum() * full.sum() / dof
+                     if plain.sum() >= PLAIN_ROWS_MIN else None)
+        return cls(model, columns, params, coef, cov, len(rows), plain_cov)
 
     @staticmethod
     def _inputs(model, params, columns, natural: list[dict[str, float]], effects: list[dict[str, float]]):
