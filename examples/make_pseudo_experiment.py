@@ -6,8 +6,8 @@ the bulk density at the preshear stress) and a curves CSV with every shear step'
     python examples/make_pseudo_experiment.py --simulator numba_dem --preset tiny \
         --set youngs_modulus=2e10 --set sliding_friction=0.35 --replicates 3 -o examples/data/pseudo-numba-tiny
 
-(``--effect wall_friction=0.2``, ``--effect sigma_log=0.3`` or ``--effect cohesion_energy_density=2e7``
-switches an effect on) writes ``pseudo-numba-tiny.yaml``, ``pseudo-numba-tiny-points.csv`` and ``pseudo-numba-tiny-curves.csv``.
+(``--effect wall_friction=0.2``, ``--effect sigma_log=0.3``, ``--effect bond_number=0.6`` or
+``--effect cohesion_energy_density=2e7`` switches an effect on) writes ``pseudo-numba-tiny.yaml``, ``pseudo-numba-tiny-points.csv`` and ``pseudo-numba-tiny-curves.csv``.
 
 Made data is never presented as measured: the header names the backend, its version, the cell
 (preset, base), the spec hash, the parameters, effects and seeds. The replicates' seeds are drawn at
@@ -26,6 +26,7 @@ from calibrax.core.data.pseudo import write_pseudo_experiment
 
 #: --effect NAME: the spec field it sets
 EFFECTS = {"wall_friction": ("geometry", "wall_friction"), "sigma_log": ("size_distribution", "sigma_log"),
+           "bond_number": ("material", "bond_number"),
            "cohesion_energy_density": ("material", "cohesion_energy_density")}
 
 

@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import concurrent.futures
 import dataclasses
 import json
 import logging
-import math
 import signal
 import warnings
 import sys
@@ -24,6 +22,7 @@ examples:
   calibrax report runs/quickstart.h5               HTML page and figures (runs/quickstart.report/)
   calibrax diagnose runs/quickstart.h5             where the sim-to-real gap lies and which effect causes it
   calibrax diagnose-benchmark                      score the diagnosis blind on cases with a withheld effect
+  calibrax sensitivity runs/quickstart.h5          what the test can see: feature shifts in noise units
   calibrax plugins                                 registered simulators, metrics, acquisitions…
 """
 
@@ -164,6 +163,28 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("-o", "--output", type=Path, metavar="DIR",
                        help="output folder (default: runs/diagnose-benchmark-LEVEL/)")
 
+    sens = sub.add_parser("sensitivity", help="what a test can see: each feature's seed noise and shift per "
+                                              "parameter and per effect, in noise units",
+                          description="Before buying simulations for a diagnosis: at a calibrated point (a campaign "
+                                      "store's answer, or a model file as diagnose-benchmark --model takes), the "
+                                      "diagnosis's DEM design is run around it (resumable: run it again to carry on) "
+                                      "and each feature's seed noise and its shift for a 10 % step of each "
+                                      "calibrated parameter and for each candidate effect at its small, medium and "
+                                      "large magnitude are tabled in noise units of an n-replicate mean; ≥ 3 is what "
+                                      "a diagnosis can see. Writes sensitivity.md, sensitivity.json and a heat map "
+                                      "(sensitivity.png/.svg). With no SOURCE: the blind benchmark's shipped model "
+                                      "and design, nothing simulated. docs/how-to/sensitivity.md.")
+    sens.add_argument("source", nargs="?", type=Path, metavar="SOURCE",
+                      help="a campaign store (.h5, with an answer) or a model file (YAML); default: the shipped model")
+    sens.add_argument("--design", type=Path, metavar="FILE",
+                      help="a design's features as benchmarks/diagnosis.py make-design writes them: use them, "
+                           "simulate nothing (default for the shipped model: its shipped design)")
+    sens.add_argument("--replicates", type=int, default=3, metavar="N",
+                      help="replicates of the experiment the noise unit is for (default 3)")
+    sens.add_argument("--workers", type=int, default=1, metavar="N", help="simulations at once (default 1)")
+    sens.add_argument("-o", "--output", type=Path, metavar="DIR",
+                      help="output folder (default: STORE.sensitivity/ or runs/sensitivity-MODEL/)")
+
     report = sub.add_parser("report", help="write an HTML report with figures of a campaign store",
                             description="The campaign's figures and tables: C–AIF cartography, yield loci, τ curves "
                                         "of the best point, surrogate maps with an identifiability statement, "
@@ -288,115 +309,16 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _study_config(args: argparse.Namespace, kind: str):
-    """The campaign config and the output folder of a study (nothing is created yet)."""
-    from calibrax.core.config import load_config
-    from calibrax.errors import ConfigError
-
-    config = load_config(args.config)
-    if args.seeds < 1:
-        raise ConfigError("--seeds", f"must be ≥ 1, got {args.seeds}")
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError("--workers", f"must be ≥ 1, got {args.workers}")
-    return config, args.output or config.store.with_suffix(f".{kind}")
-
-
-def _study_executor(args: argparse.Namespace, config):
-    """The campaign's executor, ``--workers`` overriding its ``workers``."""
-    from calibrax.core.registry import get_manager
-
-    options = dict(config.executor_options)
-    if args.workers is not None:
-        options["workers"] = args.workers
-    return get_manager().create("executor", config.executor, **options)
-
-
 def _cmd_crosscheck(args: argparse.Namespace) -> int:
-    from calibrax.core.studies.crosscheck import (agreements, crosscheck_cases, known_differences, micro_agreement,
-                                          micro_checks, micro_material, parse_point)
-    from calibrax.core.studies.study import run_study
-    from calibrax.errors import ConfigError
-    from calibrax.report.studies import crosscheck_figure, crosscheck_markdown
+    from calibrax.studies_command import crosscheck_command
 
-    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
-    if not backends:
-        raise ConfigError("--backends",
-                          f"give at least one simulator, e.g. numba_dem,liggghts,yade; got {args.backends!r}")
-    if len(set(backends)) != len(backends):
-        raise ConfigError("--backends", f"each backend once, got {args.backends!r}")
-    config, out = _study_config(args, "crosscheck")
-    # every input is checked before anything runs or is written
-    cases = crosscheck_cases(config, backends, args.seeds, [parse_point(p, config) for p in args.points])
-    executor = _study_executor(args, config)
-    out.mkdir(parents=True, exist_ok=True)
-    checks: dict = {}
-    known: dict = {}
-    # the micro-level checks (seconds per case, one backend after the other) run here while the
-    # executor runs the shear tests
-    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
-        micro = None if args.no_micro else pool.submit(micro_checks, config, backends)
-        outcomes = run_study(cases, out / "crosscheck.h5", executor, config.workdir, "crosscheck")
-        if micro is not None:
-            checks = micro.result()
-    if not args.no_micro:
-        known = known_differences(backends)
-        (out / "crosscheck-micro.json").write_text(json.dumps(
-            {"material": dataclasses.asdict(micro_material(config)), "checks": checks,
-             "known_differences": {b: {f"{f}.{q}": why for (f, q), why in k.items()} for b, k in known.items()}},
-            indent=1, default=float), encoding="utf-8")
-    micro = micro_agreement(checks, known)
-    text = crosscheck_markdown(outcomes, agreements(outcomes), micro, checks, known,
-                               None if args.no_micro else dataclasses.asdict(micro_material(config)))
-    (out / "crosscheck.md").write_text(text, encoding="utf-8")
-    crosscheck_figure(outcomes, out)
-    print(text)
-    written = [out / "crosscheck.md", out / "crosscheck.png", out / "crosscheck.svg", out / "crosscheck.h5"]
-    if not args.no_micro:
-        written.append(out / "crosscheck-micro.json")
-    print("written: " + ", ".join(str(p) for p in written))
-    return 0
+    return crosscheck_command(args)
 
 
 def _cmd_converge(args: argparse.Namespace) -> int:
-    from calibrax.core.studies.convergence import converge_cases, verdicts
-    from calibrax.core.studies.study import run_study
-    from calibrax.errors import ConfigError, PluginError
-    from calibrax.core.registry import get_manager
-    from calibrax.report.studies import converge_figure, converge_markdown
+    from calibrax.studies_command import converge_command
 
-    settings = {}
-    for option, knob in (("particles_per_diameter", "particles_per_diameter"), ("dt_fraction", "dt_fraction"),
-                         ("shear_rate", "rotation_rate")):
-        raw = getattr(args, option)
-        if raw is not None:
-            try:
-                settings[knob] = [float(v) for v in raw.split(",") if v.strip()]
-            except ValueError:
-                raise ConfigError(f"--{option.replace('_', '-')}",
-                                  f"must be comma-separated numbers, got {raw!r}") from None
-    if not settings:
-        raise ConfigError("converge", "give at least one fidelity knob: --particles-per-diameter, --dt-fraction "
-                                      "or --shear-rate, each with two or more comma-separated values")
-    config, out = _study_config(args, "converge")
-    backend = args.backend or config.simulator
-    if args.backend is not None:
-        from calibrax.core.simulator import check_capabilities
-
-        try:
-            check_capabilities(get_manager().create("simulator", backend), config.spec)
-        except (PluginError, ConfigError) as exc:
-            raise ConfigError("--backend", getattr(exc, "message", str(exc))) from None
-    cases = converge_cases(config, backend, args.seeds, settings)
-    executor = _study_executor(args, config)
-    out.mkdir(parents=True, exist_ok=True)
-    outcomes = run_study(cases, out / "converge.h5", executor, config.workdir, "converge")
-    results = verdicts(outcomes)
-    text = converge_markdown(outcomes, results)
-    (out / "converge.md").write_text(text, encoding="utf-8")
-    converge_figure(outcomes, results, out)
-    print(text)
-    print(f"written: {out / 'converge.md'}, {out / 'converge.png'}, {out / 'converge.svg'}, {out / 'converge.h5'}")
-    return 0
+    return converge_command(args)
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
@@ -404,6 +326,15 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     return run_diagnose(args.store, effects=args.effects, backend=args.backend, budget=args.budget,
                         fit_on=args.fit_on, seed=args.seed, output=args.output, workers=args.workers)
+
+
+def _cmd_sensitivity(args: argparse.Namespace) -> int:
+    from calibrax.diagnosis.sensitivity import run_sensitivity
+
+    page = run_sensitivity(args.source, design=args.design, replicates=args.replicates, workers=args.workers,
+                           output=args.output)
+    print(f"{page.read_text(encoding='utf-8')}\nwritten: {page}, {page.with_suffix('.json')}, {page.with_suffix('.png')}")
+    return 0
 
 
 def _cmd_diagnose_benchmark(args: argparse.Namespace) -> int:
@@ -455,9 +386,8 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _warning_to_log  # plugin warnings: one log line each, no source dump
     signal.signal(signal.SIGTERM, _raise_interrupt)
     handlers = {"run": _cmd_run, "status": _cmd_status, "export": _cmd_export, "report": _cmd_report,
-                "crosscheck": _cmd_crosscheck,
-                "converge": _cmd_converge, "diagnose": _cmd_diagnose,
-                "diagnose-benchmark": _cmd_diagnose_benchmark, "plugins": _cmd_plugins}
+                "crosscheck": _cmd_crosscheck, "converge": _cmd_converge, "diagnose": _cmd_diagnose,
+                "diagnose-benchmark": _cmd_diagnose_benchmark, "sensitivity": _cmd_sensitivity, "plugins": _cmd_plugins}
     try:
         return handlers[args.command](args)
     except CalibraxError as exc:

@@ -82,7 +82,7 @@ class AnalyticDoubleSimulator:
         c, aif = true_locus(m.youngs_modulus, m.sliding_friction)
         if faulty and fault == "nan":
             c = float("nan")
-        c += m.cohesion_energy_density / 1e4
+        c += m.cohesion_energy_density / 1e4 + 1500.0 * m.bond_number  # Pa: the cohesion effect, by k or by Bond number
         slope = math.tan(math.radians(aif))
         wall = 1.0 + 0.8 * spec.geometry.wall_friction
         packing = (1.0 - 0.1 * spec.geometry.wall_friction) * (1.0 + 0.15 * spec.size_distribution.sigma_log)

@@ -134,3 +134,38 @@ def test_an_experiment_with_peaks_only_is_diagnosed_on_the_yield_locus(tmp_path:
     assert "none is left to judge it on" in run.stdout
     # the log does not promise confirmation simulations that never run (issue 36)
     assert "then 3 to confirm" not in run.stdout + run.stderr and "up to 3 to confirm" in run.stdout + run.stderr
+
+
+def test_sensitivity_tables_what_the_test_can_see_and_resumes(campaign: Path) -> None:
+    """`calibrax sensitivity STORE` (issue 34): the diagnosis design around the campaign's answer,
+    each feature's shift per parameter step and per effect in noise units; the double's wall
+    friction and cohesion move the locus, its size distribution only the density."""
+    run = calibrax_cli("sensitivity", str(campaign), "--workers", "2", env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    out = campaign.with_suffix(".sensitivity")
+    for name in ("sensitivity.md", "sensitivity.json", "sensitivity.png", "sensitivity.svg"):
+        assert (out / name).is_file(), name
+    table = json.loads((out / "sensitivity.json").read_text())
+    assert table["replicates"] == 3 and table["n_simulations"] == 32  # 4 replicates, 4 baseline, 8 per effect
+    assert sorted(c.split(" ")[0] for c in table["columns"][:2]) == ["E", "μs"]
+
+    def visible(effect: str, group: str) -> float:
+        j = table["columns"].index(next(c for c in table["columns"] if c.startswith(f"{effect} medium")))
+        return max(abs(table["z"][i][j]) for i, g in enumerate(table["groups"]) if g == group)
+
+    assert visible("wall_friction", "locus") >= 3 and visible("cohesion", "locus") >= 3
+    assert visible("size_distribution", "density") >= 3 and visible("size_distribution", "locus") < 3
+    assert "| wall_friction medium" in run.stdout and "**" in run.stdout
+    # run again: the design resumes from its store, nothing is simulated again
+    before = _completions(out / "design")
+    again = calibrax_cli("sensitivity", str(campaign), env=double_env(**NOISE))
+    assert again.returncode == 0, again.stderr
+    assert _completions(out / "design") == before
+
+
+@pytest.mark.parametrize("args, key", [(["--replicates", "0"], "--replicates"), (["--workers", "0"], "--workers"),
+                                       (["nowhere.h5"], "nowhere.h5")])
+def test_sensitivity_bad_input_names_it(args: list[str], key: str, tmp_path: Path) -> None:
+    run = calibrax_cli("sensitivity", *args, "-o", str(tmp_path / "never"))
+    assert run.returncode == 2 and key in run.stderr, run.stderr
+    assert not (tmp_path / "never").exists()

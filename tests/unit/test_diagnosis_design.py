@@ -32,7 +32,8 @@ def test_each_builtin_effect_switches_its_own_field_and_off_is_the_plain_model()
     wide = psd.apply(spec, {"sigma_log": 0.25})
     assert wide.size_distribution.kind == "lognormal" and wide.size_distribution.sigma_log == 0.25
     assert psd.apply(spec, {"sigma_log": 0.0}).size_distribution.kind == "mono"
-    assert coh.apply(spec, {"cohesion_energy_density": 1e7}).material.cohesion_energy_density == 1e7
+    cohesive = coh.apply(spec, {"bond_number": 0.6})
+    assert cohesive.material.bond_number == 0.6 and cohesive.material.cohesion_energy_density == 0.0
     for effect in (wall, psd, coh):
         off = {p.name: p.off for p in effect.parameters}
         assert effect.apply(spec, off).validate().spec_hash() == spec.spec_hash()

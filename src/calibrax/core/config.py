@@ -48,7 +48,8 @@ ROOT_KEYS = {
 }
 #: spec fields added after stores existed, with their defaults: left out of the search hash while
 #: they hold them, so that a store made before the field existed still resumes
-ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None}
+ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None,
+                                            ("cell", "material", "bond_number"): 0.0}
 #: the Kriging model's options and their defaults (calibrax.core.search.surrogate)
 SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),

@@ -49,7 +49,7 @@ def required_capabilities(spec: ShearCellSpec) -> set[str]:
         need.add("wall_friction")
     if spec.size_distribution.kind != "mono":
         need.add("size_distribution")
-    if spec.material.cohesion_energy_density > 0:
+    if spec.is_cohesive():
         need.add("cohesion")
     if spec.geometry.base_ribs > 0:
         need.add("base_ribs")

@@ -151,12 +151,21 @@ class WallFriction(_Builtin):
 
 class SizeDistribution(_Builtin):
     """A log-normal spread of particle radii about the calibrated radius (the paper's particles are
-    monosized): σ of ln r, 0–0.4 (radii from 0.5 to 2 × the median at the default clipping)."""
+    monosized): σ of ln r, uniform on 0–0.5.
+
+    The range spans the sieved and classified powders an FT4 is used on: σ = 0.1 is a narrow sieve
+    cut (d90/d10 = 1.3), 0.25 a classified powder (1.9), 0.5 a milled one (d90/d10 = 3.6 before the
+    radii are clipped to 0.5–2 × the median, ``size_distribution.min_ratio``/``max_ratio``). Wider
+    spans need more particles per cell than the presets have. What to expect (Nguyen et al. 2015,
+    Azéma, Linero, Estrada and Lizcano 2017, sheared sphere packings of growing size span): the
+    shear strength hardly depends on the span, the packing fraction rises with it, weakly below
+    about 40 % spread, so the effect shows in the bulk density and its change with stress more than
+    in the yield locus."""
 
     name = "size_distribution"
     label = "size-distribution width"
     capability = "size_distribution"
-    parameters = (EffectParameter("sigma_log", "size_distribution.sigma_log", 0.0, 0.4),)
+    parameters = (EffectParameter("sigma_log", "size_distribution.sigma_log", 0.0, 0.5),)
 
     def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
         width = float(values["sigma_log"])
@@ -166,19 +175,26 @@ class SizeDistribution(_Builtin):
 
 
 class Cohesion(_Builtin):
-    """Interparticle cohesion, simplified JKR (LIGGGHTS ``cohesion sjkr``): the energy density k,
-    0–3·10⁷ J/m³. At 6–15 kPa and E of 10–50 GPa a contact's SJKR pull k·π·R*·δ reaches a few tens
-    of per cent of its normal force at the top of the range, which is where a cohesive powder's
-    C of a few hundred Pa to a kPa comes from."""
+    """Interparticle cohesion as a Bond number: the pull-off force of two particles over the mean
+    contact force at the preshear stress (:mod:`calibrax.core.sheartest.cohesion`), uniform on 0–2;
+    each backend converts it to its own cohesion parameter (numba_dem and LIGGGHTS: the SJKR energy
+    density k at the calibrated E, ν and radius).
+
+    The range spans free-flowing to very cohesive powders as the test sees them: the Bond number
+    at the shear steps' 6–9 kPa is 1.7–2.5 times the preshear's, so Bo = 2 is a pull-off force five
+    times the mean contact force at 6 kPa; sphere packings begin to shear differently near Bo = 1
+    (Singh, Magnanimo, Saitoh and Luding, 2014, "Effect of cohesion on shear banding in
+    quasistatic granular materials", Phys. Rev. E 90, 022202) and flow freely below about 0.1.
+    The former range, SJKR k up to 3·10⁷ J/m³, reached only Bo ≈ 0.012–0.02 at E = 20–25 GPa,
+    which no feature of the test could see."""
 
     name = "cohesion"
     label = "cohesion"
     capability = "cohesion"
-    parameters = (EffectParameter("cohesion_energy_density", "material.cohesion_energy_density", 0.0, 3.0e7,
-                                  unit="J/m³"),)
+    parameters = (EffectParameter("bond_number", "material.bond_number", 0.0, 2.0),)
 
     def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
-        return spec.replace(material={"cohesion_energy_density": float(values["cohesion_energy_density"])})
+        return spec.replace(material={"bond_number": float(values["bond_number"]), "cohesion_energy_density": 0.0})
 
 
 BUILTIN_EFFECTS = (WallFriction, SizeDistribution, Cohesion)

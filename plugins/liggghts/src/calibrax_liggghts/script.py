@@ -187,7 +187,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = 
                         (T_PART, T_WALL): g.wall_friction, (T_PART, T_HEAD): mu_h}, 0.0, "friction")
     rolling = _matrix({(T_PART, T_PART): m.rolling_friction, (T_PART, T_BASE): mur_b,
                        (T_PART, T_WALL): mur_wall, (T_PART, T_HEAD): m.rolling_friction}, 0.0, "rolling_friction")
-    cohesive = m.cohesion_energy_density > 0
+    cohesive = spec.is_cohesive()
     # LIGGGHTS wants the keywords in this order: model, tangential, cohesion, rolling_friction
     model = ("model hertz tangential history" + (" cohesion sjkr" if cohesive else "")
              + " rolling_friction epsd2")
@@ -226,7 +226,7 @@ def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = 
     add(f"fix m4 all property/global coefficientFriction peratomtypepair {integer(NTYPES)} {friction}")
     add(f"fix m5 all property/global coefficientRollingFriction peratomtypepair {integer(NTYPES)} {rolling}")
     if cohesive:
-        k = num(m.cohesion_energy_density, "material.cohesion_energy_density")
+        k = num(spec.sjkr_energy_density(), "material.bond_number" if m.bond_number > 0 else "material.cohesion_energy_density")
         add(f"fix m6 all property/global cohesionEnergyDensity peratomtypepair {integer(NTYPES)} "
             f"{' '.join([k] * NTYPES * NTYPES)}")
     add(f"pair_style gran {model}")

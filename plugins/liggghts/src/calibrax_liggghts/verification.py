@@ -13,14 +13,15 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from calibrax.core.sheartest.verification import FunctionVerification
+from calibrax.core.sheartest.verification import CohesiveFunctionVerification
 from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from . import mesh as meshes
 from .script import integer, num
 from .simulator import run_liggghts
 
-__all__ = ["LiggghtsVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance"]
+__all__ = ["LiggghtsVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
+           "pull_off"]
 
 
 def two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
@@ -165,7 +166,70 @@ def rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius
     return {"torque": -float(slope) * inertia, "expected": expected, "peak_torque": float(np.max(np.abs(torques)))}
 
 
-class LiggghtsVerification(FunctionVerification):
+def pull_off(energy_density: float = 1.0e8, radius: float = 0.9e-3, youngs_modulus: float = 25e9,
+             poisson_ratio: float = 0.25, density: float = 3000.0, steps: int = 4000,
+             workdir: Path | None = None) -> dict[str, float]:
+    """Two spheres with LIGGGHTS' ``cohesion sjkr`` at ``energy_density`` (J/m³) pulled apart along
+    x, and a sphere pulled off a base mesh along z, each moved by ``fix move linear`` without
+    damping (restitution 1: the pull-off force is a quasi-static quantity) or gravity, from three
+    times the overlap of greatest attraction to open in ``steps`` steps. Returns
+    ``pull_off_force`` and ``wall_pull_off_force`` (N, the largest attraction seen), and
+    ``expected`` and ``wall_expected`` (N, 2/3 π³ k³ R*² / E*² with R* = R/2 and R)."""
+    from calibrax.core.sheartest.cohesion import sjkr_pull_off_force, sjkr_pull_off_overlap
+
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        meshes.write_stl(wd / "plane.stl", meshes.base_mesh(0.45, radius), "plane")
+        for key, reff, wall in (("pull_off_force", 0.5 * radius, False), ("wall_pull_off_force", radius, True)):
+            start = 3.0 * sjkr_pull_off_overlap(energy_density, reff, e_star)
+            stop = -0.2 * sjkr_pull_off_overlap(energy_density, reff, e_star)
+            dt = 1.0e-9
+            speed = (start - stop) / (steps * dt)
+            half = 4.0 * radius
+            atoms = ([f"1 1 {num(2 * radius)} {num(density)} 0 0 {num(radius - start)}"] if wall else
+                     [f"1 1 {num(2 * radius)} {num(density)} 0 0 0",
+                      f"2 1 {num(2 * radius)} {num(density)} {num(2 * radius - start)} 0 0"])
+            box = ((-0.5, 0.5), (-0.5, 0.5), (-4.0 * radius, 8.0 * radius)) if wall else ((-half, half),) * 3
+            data = ["calibrax pull-off", "", f"{len(atoms)} atoms", "1 atom types", "",
+                    *(f"{num(lo)} {num(hi)} {a}lo {a}hi" for (lo, hi), a in zip(box, "xyz")), "", "Atoms", "", *atoms]
+            model = "model hertz tangential history cohesion sjkr"
+            moving = 1 if wall else 2
+            script = ["atom_style granular", "atom_modify map array", "boundary f f f", "newton off",
+                      "communicate single vel yes", "units si", "hard_particles yes", "read_data pull.data",
+                      f"neighbor {num(0.5 * radius)} bin", "neigh_modify delay 0",
+                      f"fix m1 all property/global youngsModulus peratomtype {num(youngs_modulus)}",
+                      f"fix m2 all property/global poissonsRatio peratomtype {num(poisson_ratio)}",
+                      "fix m3 all property/global coefficientRestitution peratomtypepair 1 1.0",
+                      "fix m4 all property/global coefficientFriction peratomtypepair 1 0.0",
+                      f"fix m6 all property/global cohesionEnergyDensity peratomtypepair 1 {num(energy_density)}",
+                      f"pair_style gran {model}", "pair_coeff * *", f"timestep {num(dt)}",
+                      f"group mover id {integer(moving)}"]
+            if wall:
+                script += ["fix plane all mesh/surface file plane.stl type 1",
+                           f"fix walls all wall/gran {model} mesh n_meshes 1 meshes plane",
+                           f"fix pull mover move linear 0.0 0.0 {num(speed)}",
+                           "variable gap equal z[1]", "variable force equal fz[1]"]
+            else:
+                script += ["group anchor id 1", "fix hold anchor move linear 0.0 0.0 0.0",
+                           f"fix pull mover move linear {num(speed)} 0.0 0.0",
+                           "variable gap equal x[2]-x[1]", "variable force equal fx[2]"]
+            script += ["variable stp equal step",
+                       'fix out all print 1 "${stp} ${gap} ${force}" file pull.txt screen no',
+                       "thermo 1000000", f"run {integer(steps)}"]
+            (wd / "pull.data").write_text("\n".join(data) + "\n", encoding="ascii")
+            (wd / "in.pull").write_text("\n".join(script) + "\n", encoding="ascii")
+            run_liggghts(wd, script="in.pull", timeout_s=300, log_name="log.pull", screen_name="screen.pull")
+            rows = np.loadtxt(wd / "pull.txt", comments="#", ndmin=2)
+            out[key] = float(np.max(-rows[:, 2]))
+    out["expected"] = sjkr_pull_off_force(energy_density, 0.5 * radius, e_star)
+    out["wall_expected"] = sjkr_pull_off_force(energy_density, radius, e_star)
+    return out
+
+
+class LiggghtsVerification(CohesiveFunctionVerification):
     """liggghts's analytic checks for the crosscheck (:class:`calibrax.core.sheartest.verification.Verification`)."""
 
     name = "liggghts"
@@ -173,3 +237,4 @@ class LiggghtsVerification(FunctionVerification):
     collision = staticmethod(two_sphere_collision)
     sliding = staticmethod(sliding_on_base)
     rolling = staticmethod(rolling_resistance)
+    pull_off = staticmethod(pull_off)

@@ -136,7 +136,10 @@ def contact(nx, ny, nz, delta, reff, meff,
     vn = vrx * nx + vry * ny + vrz * nz
     fn = kn * delta - gn * vn
     if coh > 0.0:
-        fn -= coh * math.pi * reff * delta
+        # SJKR: k·A with A = 2π R* δ, the contact circle's area to first order in δ (LIGGGHTS'
+        # cohesion sjkr computes it exactly: for two spheres from their intersection, π(2Rδ − δ²)
+        # on a wall; calibrax.core.sheartest.cohesion)
+        fn -= 2.0 * coh * math.pi * reff * delta
     fx = fn * nx
     fy = fn * ny
     fz = fn * nz

@@ -72,7 +72,7 @@ class ShearTestDriver:
         params = make_params(
             dt=self.dt, gz=-GRAVITY * POUR_GRAVITY, estar=e_star, gstar=g_star,
             beta=beta_from_restitution(m.restitution), mu=POUR_FRICTION, mur=0.0,
-            coh=m.cohesion_energy_density, use_cyl=1.0, rc=self.rc, mu_wall=min(g.wall_friction, POUR_FRICTION),
+            coh=spec.sjkr_energy_density(), use_cyl=1.0, rc=self.rc, mu_wall=min(g.wall_friction, POUR_FRICTION),
             mur_wall=0.0, use_base=1.0, mu_base=POUR_FRICTION, mur_base=0.0, nribs=g.base_ribs,
             rib_h=g.rib_height, use_head=0.0, head_r=g.head_radius, hub_r=g.hub_radius, blade_h=g.blade_height,
             nblades=g.blade_count, mu_head=spec.effective_head_friction(), mur_head=m.rolling_friction)

@@ -10,14 +10,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from calibrax.core.sheartest.verification import FunctionVerification
+from calibrax.core.sheartest.verification import CohesiveFunctionVerification
 from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params, numba_threads
 
 __all__ = ["NumbaDEMVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
-           "resting_bed_base_load"]
+           "resting_bed_base_load", "pull_off"]
 
 
 def _params(youngs_modulus: float, poisson_ratio: float, restitution: float, dt: float, **extra: float) -> np.ndarray:
@@ -149,6 +149,46 @@ def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius
     return {"base_force": base, "weight": float(np.sum(sys.mass) * g), "kinetic_energy": sys.kinetic_energy()}
 
 
+def _pull_off(energy_density: float = 1.0e8, radius: float = 0.9e-3, youngs_modulus: float = 25e9,
+              poisson_ratio: float = 0.25, density: float = 3000.0, steps: int = 4000) -> dict[str, float]:
+    """Two spheres with SJKR cohesion ``energy_density`` (J/m³) pulled apart along x, and a sphere
+    pulled off the base along z, displacement-controlled, without damping (restitution 1: the
+    pull-off force is a quasi-static quantity) or gravity.
+
+    The contact starts at three times the overlap of greatest attraction and opens in ``steps``
+    equal steps; the force on the moving sphere is read after each step. Returns
+    ``pull_off_force`` and ``wall_pull_off_force`` (N, the largest attraction seen), and
+    ``expected`` and ``wall_expected`` (N, 2/3 π³ k³ R*² / E*² with R* = R/2 and R).
+    """
+    from calibrax.core.sheartest.cohesion import sjkr_pull_off_force, sjkr_pull_off_overlap
+
+    e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
+    out: dict[str, float] = {}
+    for key, reff, axis in (("pull_off_force", 0.5 * radius, 0), ("wall_pull_off_force", radius, 2)):
+        start = 3.0 * sjkr_pull_off_overlap(energy_density, reff, e_star)
+        stop = -0.2 * sjkr_pull_off_overlap(energy_density, reff, e_star)
+        dt = 1.0e-9
+        speed = (start - stop) / (steps * dt)
+        wall = axis == 2
+        x = np.array([[0.0, 0.0, radius - start]]) if wall else np.array([[0.0, 0.0, 0.0], [2.0 * radius - start, 0.0, 0.0]])
+        params = _params(youngs_modulus, poisson_ratio, 1.0, dt, coh=energy_density, use_base=1.0 if wall else 0.0)
+        sys = DEMSystem(x, np.full(len(x), radius), density, params)
+        moving = len(x) - 1
+        attraction = 0.0
+        for k in range(steps + 1):
+            sys.x[:] = x
+            sys.x[moving, axis] += k * (start - stop) / steps
+            sys.v[:] = 0.0
+            sys.v[moving, axis] = speed
+            sys.w[:] = 0.0
+            sys.advance(1)
+            attraction = max(attraction, -float(sys.f[moving, axis]))
+        out[key] = attraction
+    out["expected"] = sjkr_pull_off_force(energy_density, 0.5 * radius, e_star)
+    out["wall_expected"] = sjkr_pull_off_force(energy_density, radius, e_star)
+    return out
+
+
 def _threaded(impl):
     import functools
 
@@ -165,9 +205,10 @@ two_sphere_collision = _threaded(_two_sphere_collision)
 sliding_on_base = _threaded(_sliding_on_base)
 rolling_resistance = _threaded(_rolling_resistance)
 resting_bed_base_load = _threaded(_resting_bed_base_load)
+pull_off = _threaded(_pull_off)
 
 
-class NumbaDEMVerification(FunctionVerification):
+class NumbaDEMVerification(CohesiveFunctionVerification):
     """numba_dem's analytic checks for the crosscheck (:class:`calibrax.core.sheartest.verification.Verification`)."""
 
     name = "numba_dem"
@@ -175,3 +216,4 @@ class NumbaDEMVerification(FunctionVerification):
     collision = staticmethod(two_sphere_collision)
     sliding = staticmethod(sliding_on_base)
     rolling = staticmethod(rolling_resistance)
+    pull_off = staticmethod(pull_off)

@@ -27,7 +27,9 @@ def effects_text(spec: ShearCellSpec) -> str:
     g, sd = spec.geometry, spec.size_distribution
     return (f"lateral wall friction = {g.wall_friction:g}; size distribution = {sd.kind}"
             + (f" (σ of ln r = {sd.sigma_log:g})" if sd.kind == "lognormal" else "")
-            + f"; cohesion energy density = {spec.material.cohesion_energy_density:g} J/m³")
+            + (f"; Bond number = {spec.material.bond_number:g} (SJKR k = {spec.sjkr_energy_density():.4g} J/m³)"
+               if spec.material.bond_number > 0
+               else f"; cohesion energy density = {spec.material.cohesion_energy_density:g} J/m³"))
 
 
 def _simulate(simulator_name: str, spec: ShearCellSpec) -> ShearTestResult:

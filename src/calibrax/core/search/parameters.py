@@ -46,6 +46,7 @@ FIELDS: dict[str, CalibratableField] = {f.name: f for f in (
     CalibratableField("poisson_ratio", "-", 0.0, 0.49999, "ν"),
     CalibratableField("density", "kg/m³", 1.0, 1.0e5, "ρ", 1.0, "kg/m³"),
     CalibratableField("cohesion_energy_density", "J/m³", 0.0, 1.0e9, "k_coh", 1e-3, "kJ/m³"),
+    CalibratableField("bond_number", "-", 0.0, 100.0, "Bo"),
 )}
 #: {name: (low, high)}: the range each calibratable parameter's box may span
 CALIBRATABLE: dict[str, tuple[float, float]] = {n: (f.low, f.high) for n, f in FIELDS.items()}

@@ -20,6 +20,10 @@ from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDA
 from calibrax.errors import SpecError
 
 
+#: (group, field) of spec fields added after specs were hashed, with their defaults
+ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0}
+
+
 @dataclass(frozen=True)
 class Material:
     """Particle material, Table 1 of the reference paper by default.
@@ -33,6 +37,10 @@ class Material:
         density: ρ, kg/m³.
         cohesion_energy_density: k of the simplified JKR model (LIGGGHTS ``cohesion sjkr``,
             F = k·A with A the contact area), J/m³; 0 = no cohesion (the default).
+        bond_number: cohesion in physical units instead of k: the pull-off force of two particles
+            of the nominal radius over the mean contact force at the preshear stress
+            (:mod:`calibrax.core.sheartest.cohesion`); each backend converts it to its own
+            cohesion parameter. 0 = none (the default); set this or ``cohesion_energy_density``.
     """
 
     youngs_modulus: float = 25.0e9
@@ -42,6 +50,7 @@ class Material:
     rolling_friction: float = 0.5
     density: float = 3000.0
     cohesion_energy_density: float = 0.0
+    bond_number: float = 0.0
 
     @property
     def reduced_modulus(self) -> float:
@@ -248,6 +257,23 @@ class ShearCellSpec:
         g = self.geometry
         return self.material.sliding_friction if g.head_friction is None else g.head_friction
 
+    def sjkr_energy_density(self) -> float:
+        """The SJKR cohesion energy density k, J/m³, of a backend with LIGGGHTS' ``cohesion sjkr``
+        law (numba_dem, LIGGGHTS): the material's k, or the k whose pull-off force between two
+        particles of the nominal radius is ``bond_number`` times the mean contact force at the
+        preshear stress (:func:`calibrax.core.sheartest.cohesion.bond_number_energy_density`)."""
+        from calibrax.core.sheartest.cohesion import bond_number_energy_density
+
+        m = self.material
+        if m.bond_number > 0.0:
+            return bond_number_energy_density(m.bond_number, self.radius, m.youngs_modulus, m.poisson_ratio,
+                                              self.procedure.preshear_stress)
+        return m.cohesion_energy_density
+
+    def is_cohesive(self) -> bool:
+        """Whether the material has any cohesion (by k or by Bond number)."""
+        return self.material.cohesion_energy_density > 0.0 or self.material.bond_number > 0.0
+
     # -- construction ------------------------------------------------------------------------
     @classmethod
     def preset(cls, fidelity: str = "quick", procedure: str = "paper", **overrides: Any) -> "ShearCellSpec":
@@ -320,8 +346,14 @@ class ShearCellSpec:
         return cls(**d)
 
     def spec_hash(self) -> str:
-        """A short stable hash of the whole spec (seed included)."""
-        blob = json.dumps(self.to_dict(), sort_keys=True).encode()
+        """A short stable hash of the whole spec (seed included); a field added after specs were
+        hashed (:data:`ADDED_SPEC_FIELDS`) counts only when it differs from its default, so that
+        the hashes of every spec made before it stay as they were."""
+        data = self.to_dict()
+        for (group, name), default in ADDED_SPEC_FIELDS.items():
+            if data.get(group, {}).get(name) == default:
+                del data[group][name]
+        blob = json.dumps(data, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
     def validate(self, min_particles: int = 50) -> "ShearCellSpec":

@@ -32,10 +32,13 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
     finite("material.restitution", m.restitution)
     if not 0.0 < m.restitution <= 1.0:
         raise SpecError("material.restitution", f"must lie in (0, 1], got {m.restitution}")
-    for key in ("sliding_friction", "rolling_friction", "cohesion_energy_density"):
+    for key in ("sliding_friction", "rolling_friction", "cohesion_energy_density", "bond_number"):
         finite(f"material.{key}", getattr(m, key))
         if getattr(m, key) < 0:
             raise SpecError(f"material.{key}", f"must be ≥ 0, got {getattr(m, key)}")
+    if m.bond_number > 0 and m.cohesion_energy_density > 0:
+        raise SpecError("material.bond_number", "set cohesion either as a Bond number or as "
+                        "material.cohesion_energy_density (J/m³), not both")
     for key in ("vessel_diameter", "fill_height", "head_radius", "blade_height", "hub_radius", "rib_height"):
         positive(f"geometry.{key}", getattr(g, key))
     if g.head_radius >= g.vessel_diameter / 2:

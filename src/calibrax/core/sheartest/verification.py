@@ -19,6 +19,11 @@ it verifies::
     def calibrax_verifications():
         return [MyVerification]
 
+A backend that models cohesion also offers ``cohesive_pull_off(material)``: two spheres, and a
+sphere on the base, pulled apart at the Bond number :data:`PULL_OFF_BOND_NUMBER`, returning the
+largest attraction (``pull_off_force``, ``wall_pull_off_force``, N) beside the law's
+(``expected``, ``wall_expected``); the crosscheck runs the cases a verification has.
+
 Each method runs its case at ``material`` (SI units) and returns {quantity: value}; the crosscheck
 sets every backend's values side by side and calls them in agreement within 2 % of their mean.
 ``known_differences`` names the quantities in which the backend's contact law differs from the
@@ -88,7 +93,11 @@ MICRO_CASES: dict[str, tuple[str, dict[str, float]]] = {
     "collision e=material": ("two_sphere_collision", {}),
     "sliding on base": ("sliding_on_base", {}),
     "rolling resistance": ("rolling_resistance", {}),
+    "cohesive pull-off Bo=1": ("cohesive_pull_off", {}),
 }
+#: the Bond number, at the reference paper's preshear stress (Pa), of the cohesive pull-off case
+PULL_OFF_BOND_NUMBER = 1.0
+PULL_OFF_STRESS = 15.0e3
 
 
 class FunctionVerification:
@@ -114,4 +123,21 @@ class FunctionVerification:
         return type(self).rolling(**material.keywords(*self.ELASTIC, "rolling_friction"))
 
 
-__all__ = ["MicroMaterial", "Verification", "FunctionVerification", "MICRO_CASES"]
+class CohesiveFunctionVerification(FunctionVerification):
+    """A :class:`FunctionVerification` of a backend with LIGGGHTS' SJKR cohesion: also the pull-off
+    case, its function taking the SJKR energy density (J/m³) of the Bond number
+    :data:`PULL_OFF_BOND_NUMBER` at the material."""
+
+    pull_off: ClassVar[Callable[..., dict[str, float]]]
+
+    def cohesive_pull_off(self, material: MicroMaterial) -> dict[str, float]:
+        from calibrax.core.sheartest.cohesion import bond_number_energy_density
+
+        k = bond_number_energy_density(PULL_OFF_BOND_NUMBER, material.radius, material.youngs_modulus,
+                                       material.poisson_ratio, PULL_OFF_STRESS)
+        return type(self).pull_off(energy_density=k, **material.keywords("radius", "youngs_modulus", "poisson_ratio",
+                                                                          "density"))
+
+
+__all__ = ["MicroMaterial", "Verification", "FunctionVerification", "CohesiveFunctionVerification", "MICRO_CASES",
+           "PULL_OFF_BOND_NUMBER", "PULL_OFF_STRESS"]

@@ -43,12 +43,12 @@ from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
 from calibrax.errors import ConfigError
 
 #: the hidden magnitudes of each builtin effect, natural units (wall friction coefficient, σ of
-#: ln r, SJKR energy density J/m³): small is where a tiny cell's seed noise hides it, large the
-#: top of the range the diagnosis explores
+#: ln r, Bond number at the preshear stress): small is where a tiny cell's seed noise hides it,
+#: large near the top of the range the diagnosis explores
 MAGNITUDES: dict[str, dict[str, float]] = {
     "wall_friction": {"small": 0.1, "medium": 0.25, "large": 0.45},
-    "sigma_log": {"small": 0.1, "medium": 0.25, "large": 0.4},
-    "cohesion_energy_density": {"small": 0.75e7, "medium": 1.5e7, "large": 3.0e7},
+    "sigma_log": {"small": 0.1, "medium": 0.25, "large": 0.45},
+    "bond_number": {"small": 0.2, "medium": 0.6, "large": 1.5},
 }
 #: the unlisted cases' hidden truths: rolling friction 0.15 (against the model's 0.5), and wall
 #: friction with a size distribution at once

@@ -110,6 +110,7 @@ def _diagnose(level, bench, design, per_class, cases, given, other, seed, worker
 
 def _emulator_level(bench, design, per_class, cases, given, seed, out):
     from calibrax.diagnosis.benchmark import emulated as em
+    from calibrax.diagnosis.sensitivity import markdown, table_of
     from calibrax.diagnosis.benchmark.cases import write_labels
 
     truth = em.TruthEmulator.fit(bench, em.load_design(design)["rows"])
@@ -127,7 +128,7 @@ def _emulator_level(bench, design, per_class, cases, given, seed, out):
     write_labels(labels, out / "labels.yaml")
     found = em.run_emulated(truth, labels, seed, progress=progress)
     words = f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of {Path(design or em.DEFAULT_DESIGN).name})"
-    return found, labels, words, em.detectability(truth)
+    return found, labels, words, markdown(table_of(truth), "What the shipped model's test can see").split("\n", 2)[2]
 
 
 def _dem_level(bench, per_class, cases, given, other, seed, workers, out):

@@ -46,12 +46,19 @@ DEFAULT_DESIGN = Path(__file__).parent / "data" / "design-tiny.json"
 FEATURES = tuple(n for g in gaps.GROUPS.values() for n in g)
 
 
-def effect_parameters(model: BenchmarkModel) -> dict[str, EffectParameter]:
-    """Every effect parameter the design varies, candidates and the unlisted rolling friction."""
+def effect_parameters(model: BenchmarkModel, unlisted: bool = True) -> dict[str, EffectParameter]:
+    """Every effect parameter the design varies: every registered effect's and the unlisted
+    rolling friction's (the benchmark's design), or only the model's candidates'."""
+    if not unlisted:
+        return {e.parameters[0].name: e.parameters[0] for e in model.effects()}
     out = {e.parameters[0].name: e.parameters[0] for e in model.effects_all()}
     rf = RollingFriction(off=model.spec.material.rolling_friction)
     out[rf.parameters[0].name] = rf.parameters[0]
     return out
+
+
+#: rows without any effect needed to estimate the seed noise at the model's point from them alone
+PLAIN_ROWS_MIN = 6
 
 
 def _basis(u: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -69,13 +76,22 @@ class TruthEmulator:
     columns: tuple[str, ...]
     params: dict[str, EffectParameter]
     coef: np.ndarray          # (p, F)
-    cov: np.ndarray           # (F, F) one simulation's residual covariance
+    cov: np.ndarray           # (F, F) one simulation's residual covariance, all rows
     n_rows: int
+    plain_cov: np.ndarray | None = None   # (F, F) the same over the rows without any effect (the seed noise
+                                          # at the model's point; the effects' lack of fit left out)
 
     @classmethod
-    def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]]) -> "TruthEmulator":
-        params = effect_parameters(model)
+    def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]], unlisted: bool = True) -> "TruthEmulator":
+        """Fit to a design's rows; ``unlisted``: they include the rolling-friction block and every
+        registered effect (the benchmark's design), else only the model's candidates (a diagnosis design)."""
+        params = effect_parameters(model, unlisted)
         columns = tuple(params)
+        unvaried = [c for c in columns if not any(abs(r["effects"].get(c, params[c].off) - params[c].off) > 0
+                                                  for r in rows)]
+        if unvaried:
+            raise ConfigError("--design", f"the design varies none of {unvaried}: it was made for other effects "
+                              "than the model's candidates; remake it (python benchmarks/diagnosis.py make-design)")
         u, g = cls._inputs(model, params, columns, [r["params"] for r in rows], [r["effects"] for r in rows])
         phi = _basis(u, g)
         y = np.array([[r["features"].get(n, math.nan) for n in FEATURES] for r in rows], dtype=float)
@@ -87,7 +103,10 @@ class TruthEmulator:
         resid = y[full] - phi[full] @ coef
         dof = max(int(full.sum()) - np.linalg.matrix_rank(phi[full]), 1)
         cov = resid.T @ resid / dof
-        return cls(model, columns, params, coef, cov, len(rows))
+        plain = ~np.any(g[full] != 0.0, axis=1)
+        plain_cov = (resid[plain].T @ resid[plain] / plain.sum() * full.sum() / dof
+                     if plain.sum() >= PLAIN_ROWS_MIN else None)
+        return cls(model, columns, params, coef, cov, len(rows), plain_cov)
 
     @staticmethod
     def _inputs(model, params, columns, natural: list[dict[str, float]], effects: list[dict[str, float]]):
@@ -217,27 +236,6 @@ def run_emulated(truth: TruthEmulator, labels: list[CaseLabel], seed: int, noise
         if progress:
             progress(i + 1, len(labels))
     return answers
-
-
-def detectability(truth: TruthEmulator, replicates: int = 3) -> str:
-    """How far each hidden truth moves the features at the model's answer, in units of the s.d.
-    of a difference between two means of ``replicates`` simulations' seed noise: the signal a
-    diagnosis has to work with before any noise of its own design. A markdown table."""
-    model = truth.model
-    centre = dict(model.centre)
-    sd = np.sqrt(np.diag(truth.cov)) * math.sqrt(2.0 / replicates)
-    base = truth.mean(centre, {})
-    truths = [(p, lvl, {p: v}) for p, levels in MAGNITUDES.items() for lvl, v in levels.items()]
-    truths += [("unlisted", "rolling friction", {"rolling_friction": ROLLING_FRICTION_TRUTH}),
-               ("unlisted", "two effects", dict(TWO_EFFECTS))]
-    short = {n: n.replace("peak_ratio_", "peak ").replace("_", " ") for n in FEATURES}
-    lines = [f"Signal of each hidden truth at the model's answer: (mean with − mean without) / s.d. of a difference "
-             f"of two {replicates}-seed means, from the truth emulator ({truth.n_rows} simulations).", "",
-             "| truth | " + " | ".join(short[n] for n in FEATURES) + " | RMS |", "|---" * (len(FEATURES) + 2) + "|"]
-    for name, level, effects in truths:
-        z = (truth.mean(centre, effects) - base) / sd
-        lines.append(f"| {name} {level} | " + " | ".join(f"{v:+.1f}" for v in z) + f" | {np.sqrt(np.mean(z ** 2)):.1f} |")
-    return "\n".join(lines) + "\n"
 
 
 def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str) -> dict[str, Any]:

@@ -93,6 +93,19 @@ class BenchmarkModel:
         return cls(str(raw["simulator"]), spec, space, centre, plausible, tuple(e.name for e in effects), budget,
                    seed, path)
 
+    @classmethod
+    def from_store(cls, path: Path) -> "BenchmarkModel":
+        """The calibrated model of a campaign store: its backend, cell, parameters and answer (the
+        point and its plausible region), every effect the backend can model, the default budget."""
+        from calibrax.core.registry import get_manager
+        from calibrax.diagnosis import Calibrated, effects_by_name
+
+        calibrated = Calibrated.from_store(path)
+        capabilities = get_manager().create("simulator", calibrated.simulator).capabilities()
+        names = tuple(e.name for e in effects_by_name(None) if e.capability in capabilities)
+        return cls(calibrated.simulator, calibrated.spec, calibrated.space, dict(calibrated.centre),
+                   dict(calibrated.plausible), names, Budget(), 0, Path(path))
+
     def effects(self) -> list[Effect]:
         from calibrax.diagnosis import effects_by_name
 
