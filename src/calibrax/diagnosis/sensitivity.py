@@ -59,11 +59,6 @@ class Sensitivity:
     n_simulations: int
     point: dict[str, float]
 
-    def visible(self, column: str, groups: tuple[str, ...] = tuple(gaps.GROUPS)) -> float:
-        """The largest |shift| of ``column`` over the rows of ``groups``, noise units."""
-        j = self.columns.index(column)
-        return max(abs(self.z[i][j]) for i, g in enumerate(self.groups) if g in groups)
-
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
