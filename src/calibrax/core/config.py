@@ -21,6 +21,7 @@ from calibrax.core.data.experiment import Experiment, experiment_fingerprint, lo
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
+from calibrax.core.sheartest.spec import ADDED_SPEC_FIELDS
 from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError
 
@@ -49,7 +50,7 @@ ROOT_KEYS = {
 #: spec fields added after stores existed, with their defaults: left out of the search hash while
 #: they hold them, so that a store made before the field existed still resumes
 ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None,
-                                            ("cell", "material", "bond_number"): 0.0}
+                                            **{("cell", *path): d for path, d in ADDED_SPEC_FIELDS.items()}}
 #: the Kriging model's options and their defaults (calibrax.core.search.surrogate)
 SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),
