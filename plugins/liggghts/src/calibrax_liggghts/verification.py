@@ -175,9 +175,9 @@ def pull_off(energy_density: float = 1.0e8, radius: float = 0.9e-3, youngs_modul
     times the overlap of greatest attraction to open in ``steps`` steps. Returns
     ``pull_off_force`` and ``wall_pull_off_force`` (N, the largest attraction seen), and
     ``expected`` and ``wall_expected`` (N, 2/3 π³ k³ R*² / E*² with R* = R/2 and R)."""
-    from calibrax.core.sheartest.cohesion import sjkr_pull_off_force, sjkr_pull_off_overlap
+    from calibrax.core.sheartest.cohesion import effective_modulus, sjkr_pull_off_force, sjkr_pull_off_overlap
 
-    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    e_star = effective_modulus(youngs_modulus, poisson_ratio)
     out: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="calibrax-liggghts-") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
