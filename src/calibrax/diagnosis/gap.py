@@ -16,14 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrax.core.data.features import experiment_features, result_features, step_mean
+from calibrax.core.data.features import experiment_features, feature_stress, result_features, step_mean
 
 #: the feature groups: the yield locus (peak τ/σ per step), the packing (bulk density, the FT4's
 #: compressibility test), steady flow (preshear and post-peak τ/σ) and the curves' shape; the
 #: recalibration fits some groups and is judged on the others
 GROUPS: dict[str, tuple[str, ...]] = {
     "locus": ("peak_ratio_9kPa", "peak_ratio_8kPa", "peak_ratio_7kPa", "peak_ratio_6kPa"),
-    "density": ("bulk_density",),
+    "density": ("bulk_density", "conditioned_bulk_density", "compressibility"),
     "flow": ("preshear_ratio", "shear_end_ratio"),
     "shape": ("initial_slope", "peak_prominence"),
 }
@@ -51,14 +51,20 @@ STEP_MEANS = ("preshear_ratio", "shear_end_ratio", "initial_slope", "peak_promin
 def diagnosis_features(features: dict[str, float]) -> dict[str, float]:
     """The diagnosis's features from one test's :func:`~calibrax.core.data.features.result_features` (or
     one replicate's experiment features): the per-step peak τ/σ as they are, the stems of
-    :data:`STEP_MEANS` averaged over the steps, and the bulk density."""
+    :data:`STEP_MEANS` averaged over the steps, the bulk density, the conditioned bulk density,
+    and ``compressibility``: the compressibility at the ramp's highest stress (the FT4's headline
+    figure, CPS at 15 kPa for its standard ramp)."""
     out = {k: v for k, v in features.items() if k.startswith("peak_ratio_")}
     for stem in STEP_MEANS:
         value = step_mean(features, stem)
         if math.isfinite(value):
             out[stem] = value
-    if math.isfinite(features.get("bulk_density", math.nan)):
-        out["bulk_density"] = features["bulk_density"]
+    for name in ("bulk_density", "conditioned_bulk_density"):
+        if math.isfinite(features.get(name, math.nan)):
+            out[name] = features[name]
+    ramp = [(feature_stress(k), v) for k, v in features.items() if k.startswith("compressibility_") and math.isfinite(v)]
+    if ramp:
+        out["compressibility"] = max(ramp)[1]
     return out
 
 

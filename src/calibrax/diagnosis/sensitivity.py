@@ -120,10 +120,8 @@ def sensitivity(model, rows: list[dict[str, Any]], replicates: int = 3, unlisted
 
 def table_of(truth, replicates: int = 3) -> Sensitivity:
     """The table of a fitted :class:`~calibrax.diagnosis.benchmark.emulated.TruthEmulator` at its model's point."""
-    from calibrax.diagnosis.benchmark.emulated import FEATURES
-
     model = truth.model
-    names, groups, weights = _combinations(FEATURES)
+    names, groups, weights = _combinations(truth.features)
     cov = truth.plain_cov if truth.plain_cov is not None else truth.cov
     sd = np.sqrt(np.diag(weights @ cov @ weights.T))
     noise = sd / math.sqrt(replicates)

@@ -17,11 +17,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.sheartest.packing import initial_packing
 from calibrax.core.sheartest.servo import servo_gains
-from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, CONSOLIDATION_LIMIT_FACTOR, GRAVITY,
+from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MIN_TIME,
+                                     CONSOLIDATION_LIMIT_FACTOR, GRAVITY,
                                      INSERTION_FRICTION, INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII,
                                      MAX_SPEED, POUR_FRICTION, POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION,
                                      insertion_time_limit,
-                                     ShearCellSpec, StepRecord, base_layer_bounds, layer_spin,
+                                     ShearCellSpec, StepRecord, base_layer_bounds, bed_top, conditioned_bulk_density,
+                                     layer_spin,
                                      preshear_drift, shear_stress_from_torque, steady_schedule)
 from calibrax.errors import SimulationFailed
 
@@ -84,6 +86,8 @@ class ShearTestDriver:
         self.consolidation_time = math.nan  # s, set by consolidate()
         self.consolidation_rotation = math.nan  # rad the head turned while consolidating
         self.insertion_gap = math.nan  # head face above the poured bed's highest particle after insertion, radii
+        self.conditioned_bulk_density = math.nan  # kg/m³, set by pour()
+        self.compression_height: list[float] = []  # m, the bed's height at each ramp stress (compress())
         self.sigma_errors: list[float] = []
         self.warnings: list[str] = []
 
@@ -119,10 +123,8 @@ class ShearTestDriver:
             self._check(phase)
 
     def bed_top(self) -> float:
-        """Height of the bed's surface, m: mean top of the 5 % highest particles."""
-        top = self.sys.x[:, 2] + self.sys.rad
-        k = max(1, int(0.05 * top.size))
-        return float(np.mean(np.sort(top)[-k:]))
+        """Height of the bed's surface, m (:func:`calibrax.core.sheartest.bed_top`)."""
+        return bed_top(self.sys.x[:, 2], self.sys.rad)
 
     # ---------------------------------------------------------------- phases
     def pour(self) -> None:
@@ -151,8 +153,10 @@ class ShearTestDriver:
         p[P_MU_WALL] = g.wall_friction
         p[P_MUR_WALL] = self._wall_mur
         self._run(3.0e-3, "settle")
+        self.conditioned_bulk_density = conditioned_bulk_density(s.x[:, 2], s.rad, m.density, self.rc)
         self.log(f"t={self.time:.5f} s poured {s.n} particles in {t_spent:.4f} s; bed top "
-                 f"{self.bed_top() * 1e3:.2f} mm (target fill height {h_target * 1e3:.2f} mm)")
+                 f"{self.bed_top() * 1e3:.2f} mm (target fill height {h_target * 1e3:.2f} mm); conditioned bulk "
+                 f"density {self.conditioned_bulk_density:.0f} kg/m³")
 
     def _set_servo(self, stress: float, speed_limit: float) -> None:
         h = self.sys.head
@@ -182,37 +186,65 @@ class ShearTestDriver:
         # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
         h[H_OMEGA] = spec.procedure.rotation_rate
         self.insert_blades(highest)
+        if spec.procedure.compressibility_stresses:
+            h[H_OMEGA] = 0.0
+            self.compress()
+            h[H_OMEGA] = spec.procedure.rotation_rate
         self._set_servo(spec.procedure.preshear_stress, APPROACH_SPEED)
-        z_prev = h[H_Z]
         t0 = self.time
         phi0 = h[H_PHI]
         target = spec.procedure.preshear_stress
         # at least one preshear rotation of turning (the blades must work their way in and the bed
-        # must compact before the first preshear is recorded), then until the head stops sinking
-        # (< 1/200 diameter in 3 ms) with σ (last 1 ms) within 5 % of its target; at most a multiple
-        # of that minimum (Procedure.consolidation_time_limit)
-        t_min = spec.procedure.consolidation_min_time
+        # must compact before the first preshear is recorded), then until the head stops sinking;
+        # at most a multiple of that minimum (Procedure.consolidation_time_limit)
         t_max = spec.procedure.consolidation_time_limit
-        while True:
-            self._run(2.0e-3, "consolidation")
-            s.take_accumulators()
-            self._run(1.0e-3, "consolidation")
-            f, _, _, _ = s.take_accumulators()
-            sigma = f / self.area
-            moved = abs(h[H_Z] - z_prev)
-            z_prev = h[H_Z]
-            if self.time - t0 > t_min and moved < 0.005 * 2 * spec.radius and abs(sigma / target - 1) < 0.05:
-                break
-            if self.time - t0 > t_max:
-                self.warnings.append(f"consolidation: the head was still moving after {t_max:.3g} s "
-                                     f"({CONSOLIDATION_LIMIT_FACTOR:g} × one preshear rotation)")
-                break
+        sigma, settled = self.hold(target, spec.procedure.consolidation_min_time, t_max, "consolidation")
+        if not settled:
+            self.warnings.append(f"consolidation: the head was still moving after {t_max:.3g} s "
+                                 f"({CONSOLIDATION_LIMIT_FACTOR:g} × one preshear rotation)")
         h[H_OMEGA] = 0.0
         self.consolidation_time = self.time - t0
         self.consolidation_rotation = float(h[H_PHI] - phi0)
         self.log(f"t={self.time:.5f} s consolidated in {self.consolidation_time:.4f} s (head turned "
                  f"{self.consolidation_rotation:.3f} rad): head at {h[H_Z] * 1e3:.2f} mm, σ = {sigma:.0f} Pa "
                  f"(target {target:.0f}), bulk density {self.bulk():.0f} kg/m³")
+
+    def hold(self, stress: float, t_min: float, t_max: float, phase: str) -> tuple[float, bool]:
+        """Hold ``stress`` (Pa) with the servo until the head has stopped sinking (< 1/200
+        diameter in 3 ms) with σ over the last 1 ms within 5 % of it, after at least ``t_min`` and
+        at most ``t_max`` s. Returns (the last σ measured, Pa; whether it settled)."""
+        s, h = self.sys, self.sys.head
+        z_prev = h[H_Z]
+        t0 = self.time
+        while True:
+            self._run(2.0e-3, phase)
+            s.take_accumulators()
+            self._run(1.0e-3, phase)
+            f, _, _, _ = s.take_accumulators()
+            sigma = f / self.area
+            moved = abs(h[H_Z] - z_prev)
+            z_prev = h[H_Z]
+            if self.time - t0 > t_min and moved < 0.005 * 2 * self.spec.radius and abs(sigma / stress - 1) < 0.05:
+                return sigma, True
+            if self.time - t0 > t_max:
+                return sigma, False
+
+    def compress(self) -> None:
+        """The FT4's compressibility test: the head, not turning, compresses the bed through
+        ``procedure.compressibility_stresses``, holding each stress until it has settled
+        (:meth:`hold`, at least :data:`~calibrax.core.sheartest.COMPRESSION_MIN_TIME`, at most the
+        consolidation's minimum time); the bed's height at each is recorded."""
+        spec, h = self.spec, self.sys.head
+        t_max = max(COMPRESSION_MIN_TIME, spec.procedure.consolidation_min_time)
+        for stress in spec.procedure.compressibility_stresses:
+            self._set_servo(stress, APPROACH_SPEED)
+            sigma, settled = self.hold(stress, COMPRESSION_MIN_TIME, t_max, "compressibility test")
+            self.compression_height.append(float(h[H_Z]))
+            if not settled:
+                self.warnings.append(f"compressibility test: the head was still moving at {stress:.0f} Pa after "
+                                     f"{t_max:.3g} s")
+            self.log(f"t={self.time:.5f} s compressed at {stress:.0f} Pa: σ = {sigma:.0f} Pa, bed height "
+                     f"{h[H_Z] * 1e3:.3f} mm, bulk density {self.bulk():.0f} kg/m³")
 
     def insert_blades(self, highest: float) -> None:
         """Take the turning blades into the bed under a low stress

@@ -81,4 +81,6 @@ class NumbaDEMSimulator:
                                  "consolidation_rotation": driver.consolidation_rotation,
                                  "insertion_gap_radii": driver.insertion_gap,
                                  "stress_area": "pi*head_radius**2"})
-        return ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density, prov, driver.warnings)
+        return ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density, prov, driver.warnings,
+                                          conditioned_bulk_density=driver.conditioned_bulk_density,
+                                          compression_height=driver.compression_height)

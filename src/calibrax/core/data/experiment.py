@@ -11,15 +11,23 @@ Files (all UTF-8, lines starting with ``#`` are comments — use them to say whe
     the point's shear step;
   - ``bulk_density_kg_m3``: the replicate's bulk density at the preshear stress (the FT4
     compressibility test at that stress), on any row of the replicate;
+  - ``conditioned_bulk_density_kg_m3``: the replicate's conditioned bulk density (CBD: the FT4's
+    conditioned, split vessel's mass over its volume), on any row of the replicate;
 
 * curves CSV (optional), columns ``replicate, normal_stress_pa, rotation_rad, shear_stress_pa``:
   the τ curve of each shear step;
+* compressibility CSV (optional), columns ``replicate, normal_stress_pa, compressibility_percent``:
+  the FT4 compressibility test as it exports it, the volume's change from the conditioned volume
+  in % at each normal stress of the ramp (e.g. 1, 2, 4, 6, 8, 10, 12, 15 kPa), increasing within
+  each replicate; replicate ids are those of the points CSV (a subset of them);
 * header YAML (optional) naming them, relative to itself::
 
       name: B4C
       source: where the data came from (instrument, date, or the pseudo-experiment's backend and parameters)
       points: b4c-points.csv
       curves: b4c-curves.csv          # optional
+      compressibility: b4c-compressibility.csv   # optional
+      conditioned_bulk_density_kg_m3: 1390       # optional: one CBD for every replicate (else the column)
       preshear_stress_pa: 15000       # optional
       bulk_density_kg_m3: 1470        # optional: one density for every replicate (else the column)
       wall_friction_angle_deg: 11.5   # optional: the FT4 wall friction test against the vessel's material
@@ -45,10 +53,11 @@ from calibrax.errors import ExperimentError
 
 POINT_COLUMNS = ("normal_stress_pa", "peak_shear_stress_pa", "replicate")
 OPTIONAL_POINT_COLUMNS = ("measured_normal_stress_pa", "preshear_normal_stress_pa", "preshear_shear_stress_pa",
-                          "bulk_density_kg_m3")
+                          "bulk_density_kg_m3", "conditioned_bulk_density_kg_m3")
+COMPRESSIBILITY_COLUMNS = ("replicate", "normal_stress_pa", "compressibility_percent")
 CURVE_COLUMNS = ("replicate", "normal_stress_pa", "rotation_rad", "shear_stress_pa")
 HEADER_KEYS = {"name", "source", "points", "curves", "preshear_stress_pa", "material", "cell", "bulk_density_kg_m3",
-               "wall_friction_angle_deg"}
+               "wall_friction_angle_deg", "compressibility", "conditioned_bulk_density_kg_m3"}
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,10 @@ class Experiment:
             degrees (NaN where not measured).
         material: the header's known material values ({field: value}, SI units): for a
             pseudo-experiment, the parameters that made it (its truth).
+        conditioned_bulk_density: the point's replicate's conditioned bulk density, shape (n,),
+            kg/m³ (NaN where not measured).
+        compressibility: {replicate: (normal stresses, Pa, increasing, shape (m,); the FT4's
+            compressibility at each, % of the conditioned volume, shape (m,))}.
     """
 
     name: str
@@ -91,10 +104,13 @@ class Experiment:
     bulk_density: np.ndarray | None = None
     wall_friction_angle_deg: float = float("nan")
     material: dict[str, float] = field(default_factory=dict)
+    conditioned_bulk_density: np.ndarray | None = None
+    compressibility: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal_stress).size
-        for key in ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density"):
+        for key in ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density",
+                    "conditioned_bulk_density"):
             value = getattr(self, key)
             object.__setattr__(self, key, np.full(n, np.nan) if value is None else np.asarray(value, dtype=float))
 
@@ -182,7 +198,7 @@ def load_points(path: Path, name: str | None = None) -> Experiment:
     if np.unique(sigma).size < 2:
         raise ExperimentError(str(path), "needs points at two or more distinct normal stresses for a yield locus")
     for col in ("measured_normal_stress_pa", "preshear_normal_stress_pa", "preshear_shear_stress_pa",
-                "bulk_density_kg_m3"):
+                "bulk_density_kg_m3", "conditioned_bulk_density_kg_m3"):
         values = cols.get(col)
         if values is not None and np.any(values[np.isfinite(values)] <= 0):
             raise ExperimentError(str(path), f"{col} must be > 0 where given")
@@ -204,6 +220,7 @@ def load_points(path: Path, name: str | None = None) -> Experiment:
         preshear_sigma=pre_sigma if pre_sigma is not None else nan,
         preshear_tau=pre_tau if pre_tau is not None else nan,
         bulk_density=_per_replicate(cols.get("bulk_density_kg_m3", nan), rep),
+        conditioned_bulk_density=_per_replicate(cols.get("conditioned_bulk_density_kg_m3", nan), rep),
     )
 
 
@@ -227,6 +244,38 @@ def load_curves(path: Path) -> dict[tuple[int, float], tuple[np.ndarray, np.ndar
         m = (cols["replicate"] == rep) & (cols["normal_stress_pa"] == sig)
         order = np.argsort(cols["rotation_rad"][m])
         out[(int(rep), float(sig))] = (cols["rotation_rad"][m][order], cols["shear_stress_pa"][m][order])
+    return out
+
+
+def load_compressibility(path: Path, replicates: list[int]) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Read a compressibility CSV → {replicate: (σ in Pa, compressibility in %)}, in the file's
+    order, which must be a strictly increasing ramp within each replicate. ``replicates``: the
+    points CSV's replicate ids, which the file's must be among."""
+    path = Path(path)
+    cols = _read_csv(path, COMPRESSIBILITY_COLUMNS)
+    rep, sigma, pct = cols["replicate"], cols["normal_stress_pa"], cols["compressibility_percent"]
+    if np.any(rep != np.round(rep)):
+        raise ExperimentError(f"{path}: replicate", "must be an integer id in every row")
+    if np.any(sigma <= 0):
+        raise ExperimentError(f"{path}: normal_stress_pa", "must be > 0 in every row")
+    if np.any((pct < 0) | (pct >= 100)):
+        raise ExperimentError(f"{path}: compressibility_percent", "must lie in [0, 100) % in every row (the volume "
+                              f"lost since conditioning), got {pct[(pct < 0) | (pct >= 100)][0]:g}")
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for r in dict.fromkeys(int(x) for x in rep):
+        m = rep == r
+        s_r, c_r = sigma[m], pct[m]
+        if r not in replicates:
+            raise ExperimentError(f"{path}: replicate", f"replicate {r} is not in the points CSV; allowed: {replicates}")
+        if s_r.size < 2:
+            raise ExperimentError(f"{path}: normal_stress_pa", f"replicate {r} has {s_r.size} stress; a ramp needs "
+                                  "at least two")
+        bad = np.flatnonzero(np.diff(s_r) <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise ExperimentError(f"{path}: normal_stress_pa", f"replicate {r}: the compressibility ramp must increase "
+                                  f"row by row, but {s_r[k]:g} Pa is followed by {s_r[k + 1]:g} Pa")
+        out[r] = (s_r, c_r)
     return out
 
 
@@ -261,6 +310,14 @@ def load_experiment(path: str | Path) -> Experiment:
     density = exp.bulk_density
     if header.get("bulk_density_kg_m3") is not None:
         density = np.full(exp.normal_stress.size, _positive_number(path, header, "bulk_density_kg_m3"))
+    conditioned = exp.conditioned_bulk_density
+    if header.get("conditioned_bulk_density_kg_m3") is not None:
+        conditioned = np.full(exp.normal_stress.size, _positive_number(path, header, "conditioned_bulk_density_kg_m3"))
+    compressibility = {}
+    if header.get("compressibility") is not None:
+        if not isinstance(header["compressibility"], str):
+            raise ExperimentError(f"{path}: compressibility", "must be the name of a compressibility CSV")
+        compressibility = load_compressibility(path.parent / header["compressibility"], exp.replicates)
     wall_angle = float("nan")
     if header.get("wall_friction_angle_deg") is not None:
         wall_angle = _positive_number(path, header, "wall_friction_angle_deg")
@@ -272,9 +329,11 @@ def load_experiment(path: str | Path) -> Experiment:
             for k, v in material.items()):
         raise ExperimentError(f"{path}: material", f"must map material fields to numbers, got {material!r}")
     source = str(header.get("source") or exp.source)
-    files = exp.files + ((str(path.parent / header["curves"]),) if header.get("curves") else ()) + (str(path),)
+    files = (exp.files + tuple(str(path.parent / header[key]) for key in ("curves", "compressibility") if header.get(key))
+             + (str(path),))
     return dataclasses.replace(exp, preshear_stress=float(pre), curves=curves, source=source, files=files,
                                bulk_density=density, wall_friction_angle_deg=wall_angle,
+                               conditioned_bulk_density=conditioned, compressibility=compressibility,
                                material={k: float(v) for k, v in material.items()})
 
 
@@ -310,4 +369,15 @@ def experiment_fingerprint(experiment: Experiment) -> str:
         for arr in experiment.curves[key]:
             add(arr)
     h.update(json.dumps(experiment.material, sort_keys=True).encode())
+    # data added after fingerprints were stored count only where present, so that an experiment
+    # without them keeps the fingerprint its stores were written with
+    conditioned = np.asarray(experiment.conditioned_bulk_density, dtype=float)
+    if np.any(np.isfinite(conditioned)):
+        h.update(b"conditioned_bulk_density")
+        add(conditioned)
+    for rep in sorted(experiment.compressibility):
+        h.update(b"compressibility")
+        add(rep)
+        for arr in experiment.compressibility[rep]:
+            add(arr)
     return h.hexdigest()[:16]

@@ -21,13 +21,14 @@ from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 
+from calibrax.core.sheartest.density import rebase_compressibility
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 
 if TYPE_CHECKING:  # pragma: no cover
     from calibrax.core.data.experiment import Experiment
     from calibrax.core.sheartest import ShearTestResult
 
-__all__ = ["step_mean", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",
+__all__ = ["step_mean", "feature_stress", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",
            "result_features", "experiment_features", "FeatureSummary", "summarise", "STILL_RISING_POSITION"]
 
 
@@ -74,6 +75,12 @@ FEATURES: dict[str, FeatureDef] = {f.stem: f for f in (
     FeatureDef("aif_measured", "deg", "AIF fitted against the σ measured at each peak", False),
     FeatureDef("bulk_density", "kg/m³", "bulk density after the first preshear, at the preshear stress "
                "(what the FT4 compressibility test measures at that stress)", False),
+    FeatureDef("conditioned_bulk_density", "kg/m³", "the FT4's conditioned bulk density: the poured bed, before "
+               "any load, split at 3/4 of its height and levelled (sheartest.density); where a size distribution "
+               "and cohesion show most", False),
+    FeatureDef("compressibility", "%", "the FT4 compressibility test: the bed's volume lost between the ramp's "
+               "first stress and the stress in the suffix (procedure.compressibility_stresses; an experiment's "
+               "series, measured from the conditioned volume, is rebased to its own first stress)", True),
 )}
 
 #: a step whose peak lies beyond this fraction of its rotation is still rising (see ``still_rising``)
@@ -85,6 +92,12 @@ INITIAL_PART, END_PART = 1.0 / 3.0, 0.25
 def step_suffix(sigma_pa: float) -> str:
     """The name suffix of a step at target σ (Pa): ``9000 → "9kPa"``, ``7500 → "7.5kPa"``."""
     return f"{round(sigma_pa / 1000.0, 3):g}kPa"
+
+
+def feature_stress(name: str) -> float:
+    """The normal stress in a feature's suffix, Pa (``"compressibility_7.5kPa"`` → 7500.0);
+    ValueError if it has none."""
+    return float(name.rsplit("_", 1)[1].removesuffix("kPa")) * 1000.0
 
 
 def feature_def(name: str) -> FeatureDef:
@@ -194,6 +207,18 @@ def result_features(result: "ShearTestResult", peak_window: float = 0.015) -> di
     out.update(_locus(result.peak_normal_stress, result.peak_shear_stress, "_measured"))
     if result.bulk_density.size:
         out["bulk_density"] = float(result.bulk_density[0])
+    out.update(_density_features(result.conditioned_bulk_density, result.compression_stress,
+                                 result.compressibility))
+    return out
+
+
+def _density_features(conditioned: float, ramp_stress: np.ndarray, compressibility: np.ndarray) -> dict[str, float]:
+    """``conditioned_bulk_density`` (kg/m³) where finite, and ``compressibility_<σ>`` (%) at every
+    stress of the ramp after its first (the reference, 0 by definition); ``ramp_stress`` Pa and
+    ``compressibility`` % measured from the first stress, both shape (m,)."""
+    out = {"conditioned_bulk_density": float(conditioned)} if math.isfinite(conditioned) else {}
+    for sigma, pct in list(zip(ramp_stress, compressibility))[1:]:
+        out[f"compressibility_{step_suffix(float(sigma))}"] = float(pct)
     return out
 
 
@@ -210,7 +235,9 @@ def experiment_features(experiment: "Experiment", peak_window: float = 0.015) ->
     gives ``peak_ratio`` against it and ``cohesion_measured``/``aif_measured`` (without it,
     ``peak_ratio`` is against the target σ, which an FT4 holds within a few per cent); preshear
     columns give ``preshear_ratio``; a bulk density column gives ``bulk_density``; τ curves give the
-    shape features and ``shear_end_ratio`` (over the target σ).
+    shape features and ``shear_end_ratio`` (over the target σ); a conditioned bulk density gives
+    ``conditioned_bulk_density``, and a compressibility series, rebased to its first stress
+    (:func:`~calibrax.core.sheartest.density.rebase_compressibility`), ``compressibility``.
 
     Args:
         experiment: the measured data.
@@ -245,6 +272,10 @@ def experiment_features(experiment: "Experiment", peak_window: float = 0.015) ->
         dens = e.bulk_density[m]
         if np.any(np.isfinite(dens)):
             f["bulk_density"] = float(np.nanmean(dens))
+        conditioned = e.conditioned_bulk_density[m]
+        ramp = e.compressibility.get(int(rep), (np.empty(0), np.empty(0)))
+        f.update(_density_features(float(np.nanmean(conditioned)) if np.any(np.isfinite(conditioned)) else math.nan,
+                                   ramp[0], rebase_compressibility(ramp[1])))
         out[int(rep)] = f
     return out
 

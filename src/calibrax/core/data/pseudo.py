@@ -1,7 +1,8 @@
 """Pseudo-experiments: a backend run at known parameters with several seeds (the "replicates"),
 written in the experiment format (header YAML, points CSV, curves CSV) with everything an FT4 user
 can measure besides the peaks: σ at each peak, the preshears' steady σ and τ, the bulk density at
-the preshear stress, and every shear step's τ curve.
+the preshear stress, every shear step's τ curve, and where the backend measured them the
+conditioned bulk density and the compressibility ramp.
 
 Made data is never presented as measured: the header and both CSVs begin with a provenance block
 naming the backend, its version, the cell, the spec hash, the material and the effects switched
@@ -11,6 +12,7 @@ campaign's simulation seed lies.
 
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 from typing import Callable
@@ -101,20 +103,34 @@ def write_experiment(results: list[ShearTestResult], out: Path, provenance: list
 
     ``factor(kind)`` scales what an instrument would measure (measurement noise): it is asked for
     ``"density"`` once per replicate, then for ``"tau"`` (a step's peak and curve),
-    ``"preshear"`` (its preshear τ) and ``"sigma"`` (its measured σ) per shear step, in that order.
+    ``"preshear"`` (its preshear τ) and ``"sigma"`` (its measured σ) per shear step, in that order;
+    then, where the result has them, for ``"density"`` once more (the conditioned bulk density)
+    and for ``"compressibility"`` once per stress of the ramp after its first.
+
+    A result with a conditioned bulk density gives the points CSV the column
+    ``conditioned_bulk_density_kg_m3``; results with a compressibility ramp give a compressibility
+    CSV, each replicate's series measured from its first stress (0 % there).
     """
     one = factor or (lambda kind: 1.0)
-    points, curves = [], []
+    points, curves, ramps = [], [], []
+    conditioned = any(math.isfinite(r.conditioned_bulk_density) for r in results)
     for r, result in enumerate(results):
         shear = [s for s in result.steps if s.kind == "shear"]
         density = float(result.bulk_density[0]) * one("density")
+        rows = []
         for k, step in enumerate(shear):
             f_tau, f_pre, f_sig = one("tau"), one("preshear"), one("sigma")
-            points.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k] * f_tau:.6g},{r + 1},"
-                          f"{result.peak_normal_stress[k] * f_sig:.6g},{result.preshear_normal_stress[k] * f_sig:.6g},"
-                          f"{result.preshear_shear_stress[k] * f_pre:.6g},{density:.6g}")
+            rows.append(f"{result.target_normal_stress[k]:.6g},{result.peak_shear_stress[k] * f_tau:.6g},{r + 1},"
+                        f"{result.peak_normal_stress[k] * f_sig:.6g},{result.preshear_normal_stress[k] * f_sig:.6g},"
+                        f"{result.preshear_shear_stress[k] * f_pre:.6g},{density:.6g}")
             for rot, tau in zip(step.rotation, step.shear_stress):
                 curves.append(f"{r + 1},{step.target_stress:.6g},{rot:.6g},{tau * f_tau:.6g}")
+        if conditioned:
+            cbd = result.conditioned_bulk_density * one("density")
+            rows = [f"{row},{cbd:.6g}" if math.isfinite(cbd) else f"{row}," for row in rows]
+        points += rows
+        for i, (sigma, pct) in enumerate(zip(result.compression_stress, result.compressibility)):
+            ramps.append(f"{r + 1},{sigma:.6g},{pct * (one('compressibility') if i else 1.0):.6g}")
     out = Path(out)
     out = out.with_suffix("") if out.suffix in (".yaml", ".csv") else out
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -122,11 +138,16 @@ def write_experiment(results: list[ShearTestResult], out: Path, provenance: list
     points_path = out.parent / f"{out.name}-points.csv"
     curves_path = out.parent / f"{out.name}-curves.csv"
     points_path.write_text(comment + "normal_stress_pa,peak_shear_stress_pa,replicate,measured_normal_stress_pa,"
-                           "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3\n"
+                           "preshear_normal_stress_pa,preshear_shear_stress_pa,bulk_density_kg_m3"
+                           + (",conditioned_bulk_density_kg_m3" if conditioned else "") + "\n"
                            + "\n".join(points) + "\n")
     curves_path.write_text(comment + "replicate,normal_stress_pa,rotation_rad,shear_stress_pa\n" + "\n".join(curves) + "\n")
-    full = {"name": out.name, "source": " ".join(provenance), "points": points_path.name, "curves": curves_path.name,
-            **header}
+    full = {"name": out.name, "source": " ".join(provenance), "points": points_path.name, "curves": curves_path.name}
+    if ramps:
+        ramp_path = out.parent / f"{out.name}-compressibility.csv"
+        ramp_path.write_text(comment + "replicate,normal_stress_pa,compressibility_percent\n" + "\n".join(ramps) + "\n")
+        full["compressibility"] = ramp_path.name
+    full.update(header)
     path = out.parent / f"{out.name}.yaml"
     path.write_text(comment + yaml.safe_dump(full, sort_keys=False, allow_unicode=True))
     return path

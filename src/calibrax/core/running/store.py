@@ -40,10 +40,13 @@ from calibrax.errors import StoreError, StoreLockedError
 
 FORMAT = "calibrax-store/1"
 #: the experiment's optional per-point arrays (stores written before they existed read as NaN)
-EXPERIMENT_ARRAYS = ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density")
+EXPERIMENT_ARRAYS = ("measured_normal_stress", "preshear_sigma", "preshear_tau", "bulk_density",
+                     "conditioned_bulk_density")
 RESULT_ARRAYS = ("peak_shear_stress", "peak_normal_stress", "target_normal_stress", "peak_position",
                  "bulk_density", "preshear_shear_stress", "preshear_normal_stress", "inertial_number",
-                 "preshear_rotation", "preshear_drift")
+                 "preshear_rotation", "preshear_drift", "compression_stress", "compression_height")
+#: a result's scalars, stored beside its arrays (stores written before they existed read as NaN)
+RESULT_SCALARS = ("conditioned_bulk_density",)
 
 
 @dataclass
@@ -419,6 +422,12 @@ def write_experiment_group(group: h5py.Group, exp: Experiment) -> None:
         c.attrs.update({"replicate": rep, "normal_stress": sigma})
         c.create_dataset("rotation", data=rot)
         c.create_dataset("shear_stress", data=tau)
+    ramps = group.create_group("compressibility")
+    for rep, (sigma, percent) in sorted(exp.compressibility.items()):
+        c = ramps.create_group(f"r{rep}")
+        c.attrs["replicate"] = rep
+        c.create_dataset("normal_stress", data=sigma)
+        c.create_dataset("compressibility_percent", data=percent)
 
 
 def read_experiment_group(group: h5py.Group) -> Experiment:
@@ -426,6 +435,9 @@ def read_experiment_group(group: h5py.Group) -> Experiment:
               for c in group["curves"].values()}
     a = group.attrs
     optional = {key: group[key][()] for key in EXPERIMENT_ARRAYS if key in group}
+    if "compressibility" in group:
+        optional["compressibility"] = {int(c.attrs["replicate"]): (c["normal_stress"][()], c["compressibility_percent"][()])
+                                       for c in group["compressibility"].values()}
     return Experiment(str(a["name"]), group["normal_stress"][()], group["peak_shear_stress"][()],
                       group["replicate"][()], float(a["preshear_stress"]), float(a["preshear_shear_stress"]),
                       curves, str(a["source"]), tuple(json.loads(a["files"])),
@@ -442,6 +454,8 @@ def write_result_group(group: h5py.Group, result: ShearTestResult) -> None:
     peaks = group.create_group("peaks")
     for name in RESULT_ARRAYS:
         peaks.create_dataset(name, data=np.asarray(getattr(result, name), dtype=float))
+    for name in RESULT_SCALARS:
+        peaks.attrs[name] = float(getattr(result, name))
     steps = group.create_group("steps")
     for i, step in enumerate(result.steps):
         s = steps.create_group(f"s{i:02d}")
@@ -459,5 +473,6 @@ def read_result_group(group: h5py.Group) -> ShearTestResult:
                                 *(s[ch][()] if ch in s else np.empty(0) for ch in StepRecord.CHANNELS)))
     # a store written before a result array existed lacks it: read it as empty
     arrays = {name: group["peaks"][name][()] if name in group["peaks"] else np.empty(0) for name in RESULT_ARRAYS}
+    arrays.update({name: float(group["peaks"].attrs.get(name, np.nan)) for name in RESULT_SCALARS})
     return ShearTestResult(steps=tuple(steps), provenance=Provenance(**prov),
                            warnings=tuple(json.loads(group.attrs.get("warnings", "[]"))), **arrays)

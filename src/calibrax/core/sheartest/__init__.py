@@ -16,6 +16,7 @@ The package is split by job, and every public name is importable from here:
 * :mod:`~calibrax.core.sheartest.peaks`: the preshear's steady part and a shear step's peak;
 * :mod:`~calibrax.core.sheartest.result`: the result type, its peaks, warnings and failures.
 * :mod:`~calibrax.core.sheartest.yieldlocus`: the yield locus and its Mohr analysis;
+* :mod:`~calibrax.core.sheartest.density`: the conditioned bulk density and the compressibility;
 * :mod:`~calibrax.core.sheartest.packing`, :mod:`~calibrax.core.sheartest.servo`: the initial
   packing and the head's servo gains every backend starts from;
 * :mod:`~calibrax.core.sheartest.facets`: radial plates for backends with mesh walls;
@@ -25,6 +26,8 @@ The package is split by job, and every public name is importable from here:
 
 from __future__ import annotations
 
+from calibrax.core.sheartest.density import (SPLIT_HEIGHT_FRACTION, bed_top, compressibility_percent,
+                                             conditioned_bulk_density, rebase_compressibility, volume_below)
 from calibrax.core.sheartest.peaks import (FIXED_PRESHEAR_STEADY_FRACTION, find_peak, preshear_drift,
                                            preshear_steady_part, running_mean_width, steady_schedule,
                                            steady_window_samples, stress_at_peak)
@@ -34,7 +37,8 @@ from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES, STEADY_PRESHEAR
 from calibrax.core.sheartest.result import LOST_BED_FRACTION, Provenance, ShearTestResult, StepRecord
 from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
-from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, CONSOLIDATION_LIMIT_FACTOR,
+from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MIN_TIME,
+                                            CONSOLIDATION_LIMIT_FACTOR,
                                             CONSOLIDATION_LIMIT_ROTATION, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
                                             INSERTION_TIME_FACTOR, INSERTION_TOLERANCE_RADII, MAX_SPEED, POUR_FRICTION,
                                             POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, insertion_time_limit)
@@ -51,4 +55,6 @@ __all__ = [
     "INSERTION_STRESS_FRACTION", "INSERTION_FRICTION", "INSERTION_TIME_FACTOR", "INSERTION_TOLERANCE_RADII",
     "CONSOLIDATION_LIMIT_FACTOR", "CONSOLIDATION_LIMIT_ROTATION", "insertion_time_limit", "POUR_FRICTION",
     "POUR_GRAVITY", "POUR_SPEED", "APPROACH_SPEED", "APPROACH_CLEARANCE", "UNLOAD_MAX_ROTATION", "MAX_SPEED",
+    "COMPRESSION_MIN_TIME", "SPLIT_HEIGHT_FRACTION", "bed_top", "compressibility_percent", "conditioned_bulk_density",
+    "rebase_compressibility", "volume_below",
 ]

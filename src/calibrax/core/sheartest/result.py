@@ -90,12 +90,25 @@ class ShearTestResult:
     warnings: tuple[str, ...] = ()
     preshear_rotation: np.ndarray = field(default_factory=lambda: np.empty(0))
     preshear_drift: np.ndarray = field(default_factory=lambda: np.empty(0))
+    conditioned_bulk_density: float = math.nan
+    compression_stress: np.ndarray = field(default_factory=lambda: np.empty(0))
+    compression_height: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     @classmethod
     def from_steps(cls, spec: ShearCellSpec, steps: list[StepRecord], bulk_density: list[float],
-                   provenance: Provenance, warnings: list[str] | None = None) -> "ShearTestResult":
+                   provenance: Provenance, warnings: list[str] | None = None,
+                   conditioned_bulk_density: float = math.nan,
+                   compression_height: list[float] | None = None) -> "ShearTestResult":
         """Read peaks, preshear steady values and inertial numbers off the steps, the same way for
-        every backend. ``bulk_density[k]`` is the bed's density after the k-th preshear (kg/m³)."""
+        every backend. ``bulk_density[k]`` is the bed's density after the k-th preshear (kg/m³);
+        ``conditioned_bulk_density`` the poured bed's (kg/m³,
+        :func:`~calibrax.core.sheartest.density.conditioned_bulk_density`); ``compression_height[i]``
+        the bed's height at the i-th stress of ``procedure.compressibility_stresses`` (m)."""
+        ramp = tuple(spec.procedure.compressibility_stresses)
+        heights = list(compression_height or [])
+        if len(heights) != len(ramp):
+            raise SimulationFailed(f"the compressibility ramp has {len(ramp)} stresses but the backend returned "
+                                   f"{len(heights)} bed heights", kind="invalid")
         warns = list(warnings or [])
         for k, s in enumerate(steps):
             if s.normal_stress.size and not np.mean(s.normal_stress) >= LOST_BED_FRACTION * s.target_stress:
@@ -168,7 +181,18 @@ class ShearTestResult:
             warnings=tuple(warns),
             preshear_rotation=np.asarray(pre_rot[:n], dtype=float),
             preshear_drift=np.asarray(drift[:n], dtype=float),
+            conditioned_bulk_density=float(conditioned_bulk_density),
+            compression_stress=np.asarray(ramp, dtype=float),
+            compression_height=np.asarray(heights, dtype=float),
         )
+
+    @property
+    def compressibility(self) -> np.ndarray:
+        """The compressibility at each stress of the ramp, %, shape (m,)
+        (:func:`~calibrax.core.sheartest.density.compressibility_percent`); empty without a ramp."""
+        from calibrax.core.sheartest.density import compressibility_percent
+
+        return compressibility_percent(self.compression_height)
 
     @property
     def base_slip(self) -> np.ndarray:

@@ -21,7 +21,8 @@ from calibrax.errors import SpecError
 
 
 #: (group, field) of spec fields added after specs were hashed, with their defaults
-ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0}
+ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0,
+                                                  ("procedure", "compressibility_stresses"): ()}
 
 
 @dataclass(frozen=True)
@@ -148,6 +149,12 @@ class Procedure:
         shear_rotation: head rotation of each shear step (past the peak), rad.
         settle_time: time the head holds the new σ, not rotating, before each rotation starts, s.
         peak_window: width of the running mean the peak is taken from, rad of rotation.
+        compressibility_stresses: the FT4 compressibility test's normal stresses, Pa, increasing,
+            the last at most the preshear stress (e.g. 1, 2, 4, 6, 8, 10, 12, 15 kPa); () = no
+            compressibility ramp (the default). When set, the head compresses the bed through them
+            without turning, after the blades are in and before consolidation, holding each until
+            the head has stopped sinking, and the result carries the bed's height at each
+            (:attr:`ShearTestResult.compression_height`; features ``compressibility_<σ>kPa``).
     """
 
     preshear_stress: float = 15.0e3
@@ -160,6 +167,7 @@ class Procedure:
     shear_rotation: float = 0.20
     settle_time: float = 0.02
     peak_window: float = 0.01
+    compressibility_stresses: tuple[float, ...] = ()
 
     @property
     def consolidation_min_time(self) -> float:
@@ -351,7 +359,7 @@ class ShearCellSpec:
         the hashes of every spec made before it stay as they were."""
         data = self.to_dict()
         for (group, name), default in ADDED_SPEC_FIELDS.items():
-            if data.get(group, {}).get(name) == default:
+            if data.get(group, {}).get(name) == json.loads(json.dumps(default)):
                 del data[group][name]
         blob = json.dumps(data, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]

@@ -114,6 +114,7 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
                             f"the steady-state criterion compares two windows of {p.steady_window} rad, more than "
                             f"the cap procedure.preshear_max_rotation ({p.preshear_max_rotation} rad) allows; "
                             "allowed: steady_window ≤ preshear_max_rotation / 2")
+    _validate_compressibility(p.compressibility_stresses, p.preshear_stress)
     if p.peak_window >= p.shear_rotation:
         raise SpecError("procedure.peak_window", "must be smaller than the shear rotation")
     positive("numerics.dt_fraction", n.dt_fraction)
@@ -136,3 +137,27 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
                         f"blades are {gap * 1e3:.2f} mm apart at the rim, less than a particle diameter "
                         f"({2e3 * spec.radius:.2f} mm): too few particles for the head")
     return spec
+
+
+def _validate_compressibility(stresses: tuple[float, ...], preshear_stress: float) -> None:
+    """The compressibility ramp: finite stresses > 0, Pa, strictly increasing, none above the
+    preshear stress, at least two (one stress compresses nothing to compare with)."""
+    key = "procedure.compressibility_stresses"
+    if not isinstance(stresses, (tuple, list)):
+        raise SpecError(key, f"must be a list of normal stresses in Pa, got {stresses!r}")
+    if len(stresses) == 0:
+        return
+    if len(stresses) < 2:
+        raise SpecError(key, "needs at least two stresses (the first is the reference the compressibility is "
+                        "measured from), or none; e.g. [1000, 2000, 4000, 6000, 8000, 10000, 12000, 15000]")
+    for s in stresses:
+        if not isinstance(s, (int, float)) or isinstance(s, bool) or not math.isfinite(s) or s <= 0:
+            raise SpecError(key, f"each must be a finite number > 0 (Pa), got {s!r}")
+    steps = [b - a for a, b in zip(stresses, stresses[1:])]
+    if min(steps) <= 0:
+        k = steps.index(min(steps))
+        raise SpecError(key, f"must increase strictly, as the FT4's ramp does: {stresses[k]} Pa is followed by "
+                        f"{stresses[k + 1]} Pa")
+    if stresses[-1] > preshear_stress:
+        raise SpecError(key, f"the last stress ({stresses[-1]} Pa) must not exceed the preshear stress "
+                        f"procedure.preshear_stress ({preshear_stress} Pa): the bed is consolidated at that after")

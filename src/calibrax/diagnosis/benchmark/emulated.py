@@ -42,7 +42,7 @@ from calibrax.diagnosis.scoring import NO_EFFECT
 from calibrax.errors import ConfigError
 
 DEFAULT_DESIGN = Path(__file__).parent / "data" / "design-tiny.json"
-#: the diagnosis features the emulator predicts
+#: the diagnosis features the emulator can predict (those of them a design has: ``TruthEmulator.features``)
 FEATURES = tuple(n for g in gaps.GROUPS.values() for n in g)
 
 
@@ -80,6 +80,7 @@ class TruthEmulator:
     n_rows: int
     plain_cov: np.ndarray | None = None   # (F, F) the same over the rows without any effect (the seed noise
                                           # at the model's point; the effects' lack of fit left out)
+    features: tuple[str, ...] = FEATURES  # the F features: those of FEATURES that every row of the design has
 
     @classmethod
     def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]], unlisted: bool = True) -> "TruthEmulator":
@@ -94,9 +95,12 @@ class TruthEmulator:
                               "than the model's candidates; remake it (python benchmarks/diagnosis.py make-design)")
         u, g = cls._inputs(model, params, columns, [r["params"] for r in rows], [r["effects"] for r in rows])
         phi = _basis(u, g)
-        y = np.array([[r["features"].get(n, math.nan) for n in FEATURES] for r in rows], dtype=float)
-        coef = np.zeros((phi.shape[1], len(FEATURES)))
-        for j in range(len(FEATURES)):
+        # a feature the design's simulations did not measure (a conditioned bulk density in a design
+        # made before backends measured it, a compressibility without a ramp) is not predicted
+        features = tuple(n for n in FEATURES if any(math.isfinite(r["features"].get(n, math.nan)) for r in rows))
+        y = np.array([[r["features"].get(n, math.nan) for n in features] for r in rows], dtype=float)
+        coef = np.zeros((phi.shape[1], len(features)))
+        for j in range(len(features)):
             ok = np.isfinite(y[:, j])
             coef[:, j] = np.linalg.lstsq(phi[ok], y[ok, j], rcond=None)[0]
         full = np.all(np.isfinite(y), axis=1)
@@ -106,7 +110,7 @@ class TruthEmulator:
         plain = ~np.any(g[full] != 0.0, axis=1)
         plain_cov = (resid[plain].T @ resid[plain] / plain.sum() * full.sum() / dof
                      if plain.sum() >= PLAIN_ROWS_MIN else None)
-        return cls(model, columns, params, coef, cov, len(rows), plain_cov)
+        return cls(model, columns, params, coef, cov, len(rows), plain_cov, features)
 
     @staticmethod
     def _inputs(model, params, columns, natural: list[dict[str, float]], effects: list[dict[str, float]]):
@@ -123,7 +127,7 @@ class TruthEmulator:
              rng: np.random.Generator) -> list[dict[str, float]]:
         """``n`` simulated tests' features at a point."""
         values = rng.multivariate_normal(self.mean(params, effects), self.cov, size=n, method="eigh")
-        return [dict(zip(FEATURES, map(float, v))) for v in values]
+        return [dict(zip(self.features, map(float, v))) for v in values]
 
 
 def load_design(path: Path | None = None) -> dict[str, Any]:
@@ -138,11 +142,13 @@ def load_design(path: Path | None = None) -> dict[str, Any]:
 
 def measurement_noise(features: dict[str, float], noise: MeasurementNoise, rng: np.random.Generator) -> dict[str, float]:
     """Relative measurement noise per feature: τ/σ ratios carry τ's and σ's, curve shapes τ's,
-    the density its own."""
+    the densities their own, the compressibility its own."""
     ratio = math.hypot(noise.tau, noise.sigma)
+    own = {"bulk_density": noise.density, "conditioned_bulk_density": noise.density,
+           "compressibility": noise.compressibility, "initial_slope": noise.tau, "peak_prominence": noise.tau}
     out = {}
     for n, v in features.items():
-        sd = noise.density if n == "bulk_density" else (noise.tau if n in ("initial_slope", "peak_prominence") else ratio)
+        sd = own.get(n, ratio)
         out[n] = v * (1.0 + sd * rng.standard_normal())
     return out
 
