@@ -19,13 +19,13 @@ NONE_OF = "none of the candidates"
 
 
 def _label(case, klass, magnitude="", effects=None):
-    expected = {"none": "none", "unlisted": NONE_OF}.get(klass, klass)
+    expected = {"none": "none", "unlisted": NONE_OF, "listed+unlisted": "wall_friction"}.get(klass, klass)
     return CaseLabel(case, klass, expected, magnitude, "test", {"sliding_friction": 0.35}, effects or {})
 
 
-def _answer(case, verdict, ranked, means=None, before=4.0, after=4.0, oracle=math.nan):
+def _answer(case, verdict, ranked, means=None, before=4.0, after=4.0, oracle=math.nan, unexplained=()):
     return Answer(case, verdict, tuple(ranked), {r: 1.0 / (i + 2) for i, r in enumerate(ranked)}, means or {},
-                  before, after, oracle)
+                  before, after, oracle, unexplained=tuple(unexplained))
 
 
 LABELS = [
@@ -41,6 +41,9 @@ LABELS = [
     _label("i", "none"),
     _label("j", "unlisted"),
     _label("k", "unlisted"),
+    _label("m1", "listed+unlisted", effects={"wall_friction": 0.25, "rolling_friction": 0.15}),
+    _label("m2", "listed+unlisted", effects={"wall_friction": 0.25, "rolling_friction": 0.15}),
+    _label("m3", "listed+unlisted", effects={"wall_friction": 0.25, "rolling_friction": 0.15}),
     _label("z", "none"),             # no answer: left out of every count
 ]
 ANSWERS = [
@@ -63,17 +66,22 @@ ANSWERS = [
     _answer("i", NONE_OF, ["none", "cohesion"]),              # also a false alarm (not "none")
     _answer("j", NONE_OF, ["wall_friction", "none"]),
     _answer("k", "wall_friction", ["wall_friction", "none"]),
+    # listed + unlisted: named with the gap flagged; named without it; rejected as none of them
+    _answer("m1", "wall_friction", ["wall_friction", "none"], unexplained=["peak_ratio_9kPa"]),
+    _answer("m2", "wall_friction", ["wall_friction", "none"]),
+    _answer("m3", NONE_OF, ["wall_friction", "none"]),
 ]
 
 
 def test_scores_count_right():
     s = score(LABELS, ANSWERS)
-    assert s.classes == ["cohesion", "wall_friction", "none", "unlisted"]
+    assert s.classes == ["cohesion", "wall_friction", "none", "unlisted", "listed+unlisted"]
     assert s.verdicts == ["cohesion", "wall_friction", "none", NONE_OF]
     expected = np.array([[0, 1, 2, 0],     # cohesion: d → wall friction, e and e2 → none
                          [0, 2, 1, 0],     # wall friction: a, b right, c → none
                          [1, 0, 2, 1],     # none: f, g right, h → cohesion, i → none of them ("z" has no answer)
-                         [0, 1, 0, 1]])    # unlisted: j rejected, k → wall friction
+                         [0, 1, 0, 1],     # unlisted: j rejected, k → wall friction
+                         [0, 2, 0, 1]])    # listed + unlisted: m1, m2 → wall friction, m3 → none of them
     np.testing.assert_array_equal(s.confusion, expected)
     assert s.counts == {"small": 2, "medium": 2, "large": 2, "medium+large": 4, "all": 6}
     assert s.top1["large"] == 0.5 and s.top1["medium"] == 0.5 and s.top1["small"] == 0.0
@@ -83,15 +91,19 @@ def test_scores_count_right():
     assert s.counts_by_class == {"cohesion": 2, "wall_friction": 2}
     assert s.false_alarms == 0.5 and s.n_none == 4
     assert s.unlisted_rejected == 0.5 and s.n_unlisted == 2
+    assert s.mixed_named == pytest.approx(2 / 3) and s.mixed_flagged == pytest.approx(1 / 3) and s.n_mixed == 3
     assert sorted(s.magnitude_errors) == pytest.approx([0.0, 0.25])
     # ratios: a 0.75/1.0, b 0.5/0.5, c 0/0.75, d 0/0.5; e has no oracle, f's oracle shrinks 1/8 (< 1/4)
     assert sorted(s.shrinkage_ratios) == pytest.approx([0.0, 0.0, 0.75, 1.0])
     assert s.shrinkage_ratio == pytest.approx(0.375)
     assert s.shrinkage_by_class == pytest.approx({"cohesion": 0.0, "wall_friction": 0.75})   # a, b, c
     goals = dict(s.goals())
-    assert list(goals.values()) == [False, False, False]
+    # top-1 overall, cohesion, wall friction; false alarms; unlisted (0.5 ≥ 0.5); shrinkage overall,
+    # cohesion, wall friction
+    assert list(goals.values()) == [False, False, True, False, True, False, False, True]
     text = table(s, "known answers")
     assert "| wall_friction | 0 | 2 | 1 | 0 |" in text and "false alarms" in text
+    assert "| listed + unlisted: named, and the gap it leaves flagged | 33 % | 3 |" in text
 
 
 def test_labels_and_answers_round_trip(tmp_path):

@@ -93,6 +93,21 @@ def test_a_gap_no_candidate_can_make_gives_none_of_the_candidates() -> None:
     assert "f5" in ranking.reason
 
 
+def test_a_listed_effect_beside_an_unlisted_one_is_named_and_the_gap_it_leaves_flagged() -> None:
+    """Wall friction at 0.8 with a gap in f5 that no candidate makes (issue 34): the wall explains
+    most of the gap and is named; f5, which it leaves, is flagged. The same f5 gap alone (the test
+    above) flags nothing: there no candidate explains without making a new misfit."""
+    rng = np.random.default_rng(3)
+    design = synthetic_design(rng)
+    shift = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -12.0])
+    ranking = rank(experiment(rng, np.zeros(2), np.array([0.8, 0.0, 0.0]), shift), design, CANDIDATES)
+    assert ranking.verdict == "wall", ranking.reason
+    assert ranking.unexplained == ("f5",) and ranking.gap_left
+    assert "acts beside it" in ranking.reason
+    alone = rank(experiment(rng, np.zeros(2), np.zeros(3), shift), design, CANDIDATES)
+    assert alone.verdict == NONE_OF_THEM and not alone.gap_left
+
+
 def test_a_measured_prior_moves_the_evidence() -> None:
     """A prior that puts the wall friction where the data want it raises its evidence over a flat
     prior; one far from it lowers it (the Bayes factor's Occam factor at work)."""

@@ -14,7 +14,9 @@ from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 
 #: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
 #: lacks is refused by :func:`check_capabilities` before anything runs.
-KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction"})
+#: (``compressibility_test``: the FT4's compressibility ramp, procedure.compressibility_stresses)
+KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
+                                "compressibility_test"})
 
 
 @runtime_checkable
@@ -53,6 +55,8 @@ def required_capabilities(spec: ShearCellSpec) -> set[str]:
         need.add("cohesion")
     if spec.geometry.base_ribs > 0:
         need.add("base_ribs")
+    if spec.procedure.compressibility_stresses:
+        need.add("compressibility_test")
     return need
 
 

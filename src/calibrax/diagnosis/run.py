@@ -151,7 +151,8 @@ class Diagnosis:
                    "prior": list(m.prior_text)} for m in self.ranking.models]
         return {"backend": self.backend, "effects": self.effects, "skipped": self.skipped, "fit_on": self.fit_on,
                 "judge_on": self.judge_on, "features": self.features, "verdict": self.verdict,
-                "reason": self.ranking.reason, "models": models, "before": gap_rows(self.before),
+                "reason": self.ranking.reason, "unexplained": list(self.ranking.unexplained), "models": models,
+                "before": gap_rows(self.before),
                 "after": gap_rows(self.after), "recalibrated": self.recalibrated,
                 "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,

@@ -63,6 +63,12 @@ MIN_ADEQUACY = 0.01
 #: a candidate wins only when its evidence beats "no effect" by this factor ("positive" evidence on
 #: Kass and Raftery's scale); below it, the gap is put down to noise
 MIN_BAYES_FACTOR = 3.0
+#: a winning candidate whose best fit still leaves features beyond |z| = 3 is named all the same
+#: when it removes at least this share of the no-effect model's χ² and leaves no feature beyond
+#: |z| = 3 that was within it with no effect: it explains most of the gap, and what it leaves is
+#: flagged (``Ranking.unexplained``) as the mark of an effect outside the list acting beside it;
+#: otherwise the answer is "none of the candidates"
+MIN_EXPLAINED = 0.5
 
 
 @dataclass(frozen=True)
@@ -224,12 +230,21 @@ class ModelScore:
 @dataclass(frozen=True)
 class Ranking:
     """Every model scored (most probable first) and the verdict: the name of the winning candidate,
-    ``"none"`` (the gap is within the noise) or ``"none of the candidates"``."""
+    ``"none"`` (the gap is within the noise) or ``"none of the candidates"``. ``unexplained``: where
+    the verdict names a candidate that explains most of the gap but not all of it, what it leaves
+    (features beyond |z| = 3 at its best fit, or the joint χ²): the gap an effect outside the list
+    leaves; empty otherwise."""
 
     models: list[ModelScore]
     verdict: str
     reason: str
     names: tuple[str, ...] = field(default_factory=tuple)
+    unexplained: tuple[str, ...] = ()
+
+    @property
+    def gap_left(self) -> bool:
+        """Whether a named candidate leaves part of the gap unexplained."""
+        return bool(self.unexplained)
 
     def model(self, name: str) -> ModelScore:
         return next(m for m in self.models if m.name == name)
@@ -356,10 +371,24 @@ def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed:
     worst = [design.names[j] for j in np.flatnonzero(np.abs(top.z) > IMPLAUSIBLE_Z)]
     if not worst and top.adequacy < MIN_ADEQUACY:
         worst = [f"the features jointly (χ² {top.chi2:.1f} on {top.dof} degrees of freedom, p = {top.adequacy:.2g})"]
-    if worst:
+    explained = 1.0 - top.chi2 / none.chi2 if none.chi2 > 0 and math.isfinite(top.chi2) else 0.0
+    unexplained: tuple[str, ...] = ()
+    # a candidate "explains most of the gap" only where it does not trade it for a new misfit: every
+    # feature it leaves beyond |z| was beyond it with no effect too (a fit that spreads a gap no
+    # candidate makes over the other features removes χ² without explaining anything)
+    new_misfits = [design.names[j] for j in np.flatnonzero(np.abs(top.z) > IMPLAUSIBLE_Z)
+                   if abs(none.z[j]) <= IMPLAUSIBLE_Z]
+    if worst and top.name != NO_EFFECT and explained >= MIN_EXPLAINED and not new_misfits:
+        verdict, unexplained = top.name, tuple(worst)
+        reason = (f"{top.label} explains most of the gap (p = {top.probability:.2f}, Bayes factor {factor:.3g} against "
+                  f"no effect; it removes {explained:.0%} of no effect's χ²) but leaves {', '.join(worst)} beyond "
+                  f"|z| = {IMPLAUSIBLE_Z:g} at its best fit: an effect outside the candidates acts beside it")
+    elif worst:
         verdict = NONE_OF_THEM
         reason = (f"the best model ({top.label}, p = {top.probability:.2f}) still leaves "
-                  f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit")
+                  f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit"
+                  + (f" (it removes only {explained:.0%} of no effect's χ², < {MIN_EXPLAINED:.0%})"
+                     if top.name != NO_EFFECT else ""))
     elif top.name == NO_EFFECT:
         verdict = NO_EFFECT
         reason = (f"no effect: the gap is within the noise (no candidate's Bayes factor against no effect reaches "
@@ -368,4 +397,4 @@ def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed:
         verdict = top.name
         reason = (f"{top.label} explains the gap (p = {top.probability:.2f}, Bayes factor {factor:.3g} against no "
                   f"effect; every feature within |z| ≤ {IMPLAUSIBLE_Z:g} at its best fit)")
-    return Ranking(models, verdict, reason, design.names)
+    return Ranking(models, verdict, reason, design.names, unexplained)

@@ -85,7 +85,8 @@ def _agreement_cell(o: CaseOutcome, agree: list[Agreement]) -> str:
         return "" if key not in q else f"{name} {'yes' if q[key] else '**no**'}"
 
     return "; ".join(f"{b}: " + ", ".join(filter(None, (word(q, "cohesion", "C"), word(q, "aif", "AIF"),
-                                                         word(q, "bulk_density", "ρ"))))
+                                                         word(q, "bulk_density", "ρ"),
+                                                         word(q, "conditioned_bulk_density", "CBD"))))
                      for b, q in parts.items())
 
 
@@ -138,7 +139,8 @@ def crosscheck_markdown(outcomes: list[CaseOutcome], agree: list[Agreement], mic
              *servo_table(outcomes),
              "## Agreement between backends", "",
              "| case | quantity | backends | Δ | limit 2·√(u_a² + u_b²) | agree |", "|---|---|---|---|---|---|"]
-    names = {"cohesion": ("C", ".0f", " Pa"), "aif": ("AIF", ".1f", "°"), "bulk_density": ("ρ_bulk", ".0f", " kg/m³")}
+    names = {"cohesion": ("C", ".0f", " Pa"), "aif": ("AIF", ".1f", "°"), "bulk_density": ("ρ_bulk", ".0f", " kg/m³"),
+             "conditioned_bulk_density": ("CBD", ".0f", " kg/m³")}
     for a in agree:
         name, digits, unit = names[a.quantity]
         lines.append(f"| {a.point} | {name} | {a.backend_a} − {a.backend_b} | "

@@ -45,6 +45,8 @@ __all__ = ["num", "integer", "ScriptPlan", "BenchStart", "write_inputs", "SCRIPT
 
 SCRIPT_NAME = "in.calibrax"
 DATA_NAME = "particles.data"
+#: the poured bed's particle heights and radii, written once after the pour
+POURED_DUMP = "poured.dump"
 
 #: the dynamic head's speed limit while settling and shearing, m/s: high enough never to act (as
 #: numba_dem's: a limit that clips the head's response to contact spikes rectifies them). The pour,
@@ -332,6 +334,8 @@ def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = 
     add(f"fix gravi all gravity {num(GRAVITY)} vector 0.0 0.0 -1.0")
     add(f"run {chunk(3.0e-3)}")
     add('print "CALIBRAX poured ${stp} ${ztop} ${vmax}"')
+    # the poured bed's particles, for its conditioned bulk density (calibrax.core.sheartest.density)
+    add(f"write_dump all custom {POURED_DUMP} z radius")
 
     # ---------------------------------------------------------------- place the head, consolidate
     add(f"variable ztarget equal v_ztop+{num(g.blade_height + APPROACH_CLEARANCE * d)}")

@@ -15,12 +15,13 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.sheartest import (CONSOLIDATION_LIMIT_FACTOR, Provenance, ShearCellSpec, ShearTestResult,
-                                     StepRecord, insertion_time_limit, shear_stress_from_torque)
+                                     StepRecord, conditioned_bulk_density, insertion_time_limit,
+                                     shear_stress_from_torque)
 from calibrax.core.simulator import check_capabilities
 from calibrax.errors import EngineNotFound, SimulationFailed
 
 from . import __version__
-from .script import APPROACH_SPEED, SCRIPT_NAME, ScriptPlan, write_inputs
+from .script import APPROACH_SPEED, POURED_DUMP, SCRIPT_NAME, ScriptPlan, write_inputs
 
 __all__ = ["LiggghtsSimulator", "find_liggghts", "run_liggghts", "INSTALL_HINT"]
 
@@ -123,6 +124,20 @@ def _load(path: Path, ncols: int) -> np.ndarray:
             continue
         rows.append([float(v) for v in parts[:ncols]])
     return np.asarray(rows, dtype=float).reshape(-1, ncols)
+
+
+def poured_density(spec: ShearCellSpec, dump: Path) -> float:
+    """The conditioned bulk density of the poured bed, kg/m³, from the dump the script writes after
+    the pour (:func:`calibrax.core.sheartest.conditioned_bulk_density`); NaN if it is missing."""
+    try:
+        lines = dump.read_text().splitlines()
+        start = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS")) + 1
+        zr = np.asarray([[float(v) for v in line.split()[:2]] for line in lines[start:] if line.strip()], float)
+    except (OSError, StopIteration, ValueError):
+        return math.nan
+    if zr.size == 0:
+        return math.nan
+    return conditioned_bulk_density(zr[:, 0], zr[:, 1], spec.material.density, spec.geometry.vessel_diameter / 2.0)
 
 
 def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Path
@@ -271,4 +286,5 @@ class LiggghtsSimulator:
                           extra={"time_step": plan.dt, "simulated_time": info["total_steps"] * plan.dt,
                                  "servo_sigma_errors": errors, "stress_area": "pi*head_radius**2",
                                  "plugin_version": __version__, **info})
-        return ShearTestResult.from_steps(spec, steps, bulk, prov, warnings)
+        return ShearTestResult.from_steps(spec, steps, bulk, prov, warnings,
+                                          conditioned_bulk_density=poured_density(spec, workdir / POURED_DUMP))

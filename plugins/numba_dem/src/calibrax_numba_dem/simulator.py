@@ -28,7 +28,8 @@ class NumbaDEMSimulator:
     def capabilities(self) -> frozenset[str]:
         """Optional effects modelled: wall friction, size distributions, SJKR cohesion, base
         ribs, rolling friction."""
-        return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction"})
+        return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
+                          "compressibility_test"})
 
     def version(self) -> str:
         """``numba_dem <version> (numba <version>)``."""

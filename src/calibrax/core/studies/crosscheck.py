@@ -98,8 +98,8 @@ class Agreement:
 
 def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
     """Pairwise agreement of the backends at each point (2σ of the combined uncertainty) in C and
-    AIF, and in the bulk density after the first preshear where both have ≥ 2 seeds (its u is
-    the seed s.d./√n)."""
+    AIF, and in the bulk density after the first preshear and the conditioned bulk density where
+    both have them from ≥ 2 seeds (their u is the seed s.d./√n)."""
     by_point: dict[str, list[CaseOutcome]] = {}
     for o in outcomes:
         by_point.setdefault(o.case.label, []).append(o)
@@ -107,10 +107,10 @@ def agreements(outcomes: list[CaseOutcome]) -> list[Agreement]:
     for label, group in by_point.items():
         for a, b in itertools.combinations(group, 2):
             sa, sb = a.summary(), b.summary()
-            for q in ("cohesion", "aif", "bulk_density"):
+            for q in ("cohesion", "aif", "bulk_density", "conditioned_bulk_density"):
                 if q in sa and q in sb:
                     limit = 2.0 * math.hypot(sa[f"{q}_u"], sb[f"{q}_u"])
-                    if q == "bulk_density" and not math.isfinite(limit):
+                    if q.endswith("bulk_density") and not math.isfinite(limit):
                         continue
                     out.append(Agreement(label, q, a.case.backend, b.case.backend, sa[q] - sb[q], limit))
     return out

@@ -142,6 +142,11 @@ class CaseOutcome:
             "particles": float(self.good[0].provenance.particle_count),
         })
         out["bulk_density_u"] = out["bulk_density_sd"] / math.sqrt(len(self.good))
+        conditioned = [r.conditioned_bulk_density for r in self.good]
+        if len(conditioned) > 1 and all(math.isfinite(v) for v in conditioned):  # where the backend measures it
+            out["conditioned_bulk_density"] = float(np.mean(conditioned))
+            out["conditioned_bulk_density_sd"] = float(np.std(conditioned, ddof=1))
+            out["conditioned_bulk_density_u"] = out["conditioned_bulk_density_sd"] / math.sqrt(len(conditioned))
         windows = [dict(shear_window_diagnostics(r), **_robust_features(r),
                         base_load=steady_base_load(self.case.spec, r.steps, r.bulk_density),
                         base_slip=float(np.nanmean(r.base_slip)) if np.any(np.isfinite(r.base_slip)) else math.nan)

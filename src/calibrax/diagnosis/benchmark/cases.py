@@ -6,9 +6,14 @@ experiment files a diagnosis sees.
 * a *listed* effect (one of the model's candidates) at a small, medium or large magnitude
   (:data:`MAGNITUDES`, natural units);
 * ``none``: a control with no effect;
-* ``unlisted``: an effect outside the candidate list: a different rolling friction (the sphere
-  model's stand-in for particle shape, :class:`RollingFriction`) or two listed effects at once
-  (:data:`TWO_EFFECTS`). The right answer to both is "none of the candidates".
+* ``unlisted``: an effect outside the candidate list alone: a different rolling friction (the
+  sphere model's stand-in for particle shape, :class:`RollingFriction`). The right answer is
+  "none of the candidates";
+* ``listed+unlisted``: a listed effect and that unlisted one together
+  (:data:`LISTED_AND_UNLISTED`). The right answer names the listed effect
+  (:data:`LISTED_AND_UNLISTED_EXPECTED`) and flags the gap it leaves
+  (:attr:`~calibrax.diagnosis.scoring.Ranking.unexplained`); scored apart from the unlisted
+  class, as "named" and "named with the gap flagged".
 
 **Labels file** (YAML, never read by a diagnosis)::
 
@@ -50,12 +55,16 @@ MAGNITUDES: dict[str, dict[str, float]] = {
     "sigma_log": {"small": 0.1, "medium": 0.25, "large": 0.45},
     "bond_number": {"small": 0.2, "medium": 0.6, "large": 1.5},
 }
-#: the unlisted cases' hidden truths: rolling friction 0.15 (against the model's 0.5), and wall
-#: friction with a size distribution at once
+#: the unlisted case's hidden truth: rolling friction 0.15 (against the model's 0.5)
 ROLLING_FRICTION_TRUTH = 0.15
-TWO_EFFECTS = {"wall_friction": 0.2, "sigma_log": 0.3}
+#: the listed-and-unlisted case's: wall friction at its medium magnitude with that rolling friction
+LISTED_AND_UNLISTED = {"wall_friction": 0.25, "rolling_friction": ROLLING_FRICTION_TRUTH}
+LISTED_AND_UNLISTED_EXPECTED = "wall_friction"
 CLASS_NONE = "none"
 CLASS_UNLISTED = "unlisted"
+CLASS_MIXED = "listed+unlisted"
+#: the classes that are not one listed effect alone
+OTHER_CLASSES = (CLASS_NONE, CLASS_UNLISTED, CLASS_MIXED)
 
 
 class RollingFriction:
@@ -133,7 +142,7 @@ def read_labels(path: Path) -> list[CaseLabel]:
 
 
 def expected_answer(klass: str) -> str:
-    return {CLASS_NONE: NO_EFFECT, CLASS_UNLISTED: NONE_OF_THEM}.get(klass, klass)
+    return {CLASS_NONE: NO_EFFECT, CLASS_UNLISTED: NONE_OF_THEM, CLASS_MIXED: LISTED_AND_UNLISTED_EXPECTED}.get(klass, klass)
 
 
 def opaque_ids(n: int, seed: int) -> list[str]:

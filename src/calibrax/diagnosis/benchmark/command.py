@@ -81,6 +81,7 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
         {"level": level, "model": str(bench.source), "classes": result.classes, "verdicts": result.verdicts,
          "confusion": result.confusion.tolist(), "top1": result.top1, "top2": result.top2, "counts": result.counts,
          "top1_by_class": result.top1_by_class, "false_alarms": result.false_alarms, "unlisted_rejected": result.unlisted_rejected,
+         "mixed_named": result.mixed_named, "mixed_flagged": result.mixed_flagged, "n_mixed": result.n_mixed,
          "magnitude_error": result.magnitude_error, "shrinkage_ratio": result.shrinkage_ratio,
          "shrinkage_by_class": result.shrinkage_by_class,
          "goals": {name: ok for name, ok in result.goals()}, "cases": result.per_case,
@@ -93,10 +94,10 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
 
 
 def _classes(bench) -> list[str]:
-    from calibrax.diagnosis.benchmark.cases import CLASS_NONE, CLASS_UNLISTED
+    from calibrax.diagnosis.benchmark.cases import CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED
     from calibrax.diagnosis.benchmark.plan import listed_classes
 
-    return [n for n, _ in listed_classes(bench)] + [CLASS_NONE, CLASS_UNLISTED]
+    return [n for n, _ in listed_classes(bench)] + [CLASS_NONE, CLASS_UNLISTED, CLASS_MIXED]
 
 
 def _diagnose(level, bench, design, per_class, cases, given, other, seed, workers, out):

@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.benchmark.cases import (CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, ROLLING_FRICTION_TRUTH,
-                                                TWO_EFFECTS, CaseLabel, MeasurementNoise, RollingFriction,
-                                                expected_answer, opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, LISTED_AND_UNLISTED,
+                                                MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
+                                                MeasurementNoise, RollingFriction, expected_answer, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.benchmark.scores import Answer
 from calibrax.diagnosis.effects import EffectParameter
@@ -154,8 +154,9 @@ def measurement_noise(features: dict[str, float], noise: MeasurementNoise, rng: 
 
 
 def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[CaseLabel]:
-    """``per_class`` cases of every magnitude of every listed effect, and ``per_class`` × 3 of no
-    effect and of unlisted effects (rolling friction and two effects, half each), all at the
+    """``per_class`` cases of every magnitude of every listed effect, ``per_class`` × 3 of no
+    effect, and ``per_class`` × 2 of an unlisted effect alone and of a listed and an unlisted one
+    together (:data:`~calibrax.diagnosis.benchmark.cases.LISTED_AND_UNLISTED`), all at the
     model's answer: the campaign's answer is then the truth's calibrated parameters, so the gap
     "before" is the hidden effect's alone and the oracle (those parameters with the effect) is the
     truth itself. Cases made elsewhere than at the answer carry a parameter mismatch in their gap
@@ -172,9 +173,11 @@ def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[Case
         for level, value in MAGNITUDES[pname].items():
             rows += [(e.name, level, params(), {pname: value}) for _ in range(per_class)]
     rows += [(CLASS_NONE, "", params(), {}) for _ in range(3 * per_class)]
-    for k in range(3 * per_class):
-        rows.append((CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH})
-                    if k % 2 == 0 else (CLASS_UNLISTED, "two effects", params(), dict(TWO_EFFECTS)))
+    rows += [(CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH})
+             for _ in range(2 * per_class)]
+    if any(e.name == "wall_friction" for e in model.effects()):
+        rows += [(CLASS_MIXED, "wall friction + rolling friction", params(), dict(LISTED_AND_UNLISTED))
+                 for _ in range(2 * per_class)]
     ids = opaque_ids(len(rows), seed)
     return sorted((CaseLabel(i, k, expected_answer(k), lvl, "emulator", p, eff) for i, (k, lvl, p, eff) in zip(ids, rows)),
                   key=lambda c: c.case)
@@ -211,13 +214,14 @@ def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str
         sims = truth.draw(point.params, point.effect_values, model.budget.confirm, rng)
         after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd) if g.name in judge])
     oracle_after = math.nan
-    if oracle is not None and oracle.effects and oracle.klass not in (CLASS_NONE, CLASS_UNLISTED):
+    if oracle is not None and oracle.effects and oracle.klass not in OTHER_CLASSES:
         sims = truth.draw(oracle.params, oracle.effects, model.budget.confirm, rng)
         oracle_after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd)
                                       if g.name in judge])
     models = ranking.models
     return Answer(case, ranking.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
-                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after)
+                  {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after,
+                  unexplained=ranking.unexplained)
 
 
 @contextmanager

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, point_spec
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.diagnosis.benchmark.cases import (CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, ROLLING_FRICTION_TRUTH,
-                                                TWO_EFFECTS, CaseLabel, RollingFriction, expected_answer, opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, LISTED_AND_UNLISTED,
+                                                MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
+                                                RollingFriction, expected_answer, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import SEED_BASE
 
@@ -59,14 +60,16 @@ def plan_dem(model: BenchmarkModel, per_class: int = 3, other_backends: dict[str
             if klass == CLASS_NONE:
                 rows.append((klass, "", backend, params, {}))
             elif klass == CLASS_UNLISTED:
-                effects = {"rolling_friction": ROLLING_FRICTION_TRUTH} if k % 3 != 2 else dict(TWO_EFFECTS)
-                rows.append((klass, "rolling friction" if k % 3 != 2 else "two effects", backend, params, effects))
+                rows.append((klass, "rolling friction", backend, params, {"rolling_friction": ROLLING_FRICTION_TRUTH}))
+            elif klass == CLASS_MIXED:
+                rows.append((klass, "wall friction + rolling friction", backend, params, dict(LISTED_AND_UNLISTED)))
             else:
                 pname = dict(listed_classes(model))[klass]
                 level = LEVELS[k % len(LEVELS)]
                 rows.append((klass, level, backend, params, {pname: MAGNITUDES[pname][level]}))
 
-    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED]
+    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED] + (
+        [CLASS_MIXED] if any(e.name == "wall_friction" for e in model.effects()) else [])
     for klass in classes:
         add(model.simulator, klass)
     for backend, kinds in other_backends.items():
@@ -76,7 +79,7 @@ def plan_dem(model: BenchmarkModel, per_class: int = 3, other_backends: dict[str
     out = []
     for i, ((klass, level, backend, params, effects), case) in enumerate(zip(rows, ids)):
         label = CaseLabel(case, klass, expected_answer(klass), level, backend, params, effects)
-        oracle = klass not in (CLASS_NONE, CLASS_UNLISTED)
+        oracle = klass not in OTHER_CLASSES
         out.append(PlannedCase(label, tuple(TRUTH_SEED_BASE + 10 * i + r for r in range(REPLICATES)),
                                tuple(ORACLE_SEED_BASE + 10 * i + r for r in range(ORACLE_SEEDS)) if oracle else ()))
     return sorted(out, key=lambda c: c.label.case)
