@@ -26,6 +26,9 @@ EID_CYL = 0
 EID_BASE = 1
 EID_DISC = 2
 EID_BLADE0 = 3
+#: the ribs' ids start here, whatever the number of blades, so that a rib contact keeps its history
+#: when the head's blades are retracted (the compressibility test's flat piston)
+EID_RIB0 = 1000
 
 
 @njit(cache=True, inline="always")
@@ -239,7 +242,7 @@ def wall_forces(i, x, v, w, rad, mass, params, head, dirs, wid, whist, wrhist):
             qx, qy, qz, dist = _plate_closest(px, py, pz, ca, sa, params[P_HUB_R], params[P_RC], 0.0, hr)
             if not (dist < r and dist > 0.0):
                 continue
-            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_BLADE0 + nblades + k, (px - qx) / dist,
+            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_RIB0 + k, (px - qx) / dist,
                                                      (py - qy) / dist, (pz - qz) / dist, r - dist, 0.0, 0.0,
                                                      0.0, 0.0, params[P_MU_BASE], params[P_MUR_BASE], r, m, v, w,
                                                      params, wid, whist, wrhist)

@@ -9,6 +9,7 @@ over each sample interval. Rotation is counted from 0 at the start of each step.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -17,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from calibrax.core.sheartest.packing import initial_packing
 from calibrax.core.sheartest.servo import servo_gains
-from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MIN_TIME,
+from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MAX_TIME,
+                                     COMPRESSION_MIN_TIME,
                                      CONSOLIDATION_LIMIT_FACTOR, GRAVITY,
                                      INSERTION_FRICTION, INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII,
                                      MAX_SPEED, POUR_FRICTION, POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION,
@@ -30,7 +32,7 @@ from calibrax.errors import SimulationFailed
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params
 from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX,
-                     H_VREF, H_VZ, H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR, P_MUR_BASE,
+                     H_VREF, H_VZ, H_Z, P_GZ, P_NBLADES, P_MU, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR, P_MUR_BASE,
                      P_MUR_HEAD, P_MUR_WALL, P_USE_HEAD)
 
 #: servo speed limit while settling and shearing, m/s: high enough never to act, because a limit
@@ -186,10 +188,6 @@ class ShearTestDriver:
         # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
         h[H_OMEGA] = spec.procedure.rotation_rate
         self.insert_blades(highest)
-        if spec.procedure.compressibility_stresses:
-            h[H_OMEGA] = 0.0
-            self.compress()
-            h[H_OMEGA] = spec.procedure.rotation_rate
         self._set_servo(spec.procedure.preshear_stress, APPROACH_SPEED)
         t0 = self.time
         phi0 = h[H_PHI]
@@ -230,21 +228,40 @@ class ShearTestDriver:
                 return sigma, False
 
     def compress(self) -> None:
-        """The FT4's compressibility test: the head, not turning, compresses the bed through
-        ``procedure.compressibility_stresses``, holding each stress until it has settled
-        (:meth:`hold`, at least :data:`~calibrax.core.sheartest.COMPRESSION_MIN_TIME`, at most the
-        consolidation's minimum time); the bed's height at each is recorded."""
-        spec, h = self.spec, self.sys.head
-        t_max = max(COMPRESSION_MIN_TIME, spec.procedure.consolidation_min_time)
+        """The FT4's compressibility test on the poured bed, as a separate sample: the head, its
+        blades retracted (a flat piston, as the FT4's vented piston), comes down onto a copy of
+        the poured bed and compresses it through ``procedure.compressibility_stresses`` without
+        turning, holding each stress until it has settled (:meth:`hold`, at least
+        :data:`~calibrax.core.sheartest.COMPRESSION_MIN_TIME`, at most
+        :data:`~calibrax.core.sheartest.COMPRESSION_MAX_TIME`); the bed's height at each is
+        recorded. Then the poured bed is put back as it was, so the shear test runs on the bed
+        the plain test would (the FT4 tests a fresh sample too)."""
+        spec = self.spec
+        poured, ceiling = copy.deepcopy(self.sys), self.z_ceiling
+        s, h = self.sys, self.sys.head
+        p = s.params
+        p[P_NBLADES] = 0.0
+        top = float(np.max(s.x[:, 2] + s.rad))
+        h[H_Z] = top + 0.1 * spec.radius
+        self.z_ceiling = h[H_Z] + 10.0 * spec.radius
+        h[H_VZ] = h[H_VREF] = 0.0
+        h[H_OMEGA] = 0.0
+        p[P_USE_HEAD] = 1.0
+        bed_mass = float(np.sum(s.mass))
+        t_max = COMPRESSION_MAX_TIME
         for stress in spec.procedure.compressibility_stresses:
+            h[H_MASS], h[H_DAMP], h[H_TAU_REF] = servo_gains(stress, self.area, spec.radius, self.e_star,
+                                                             self.bed_top(), bed_mass)
             self._set_servo(stress, APPROACH_SPEED)
             sigma, settled = self.hold(stress, COMPRESSION_MIN_TIME, t_max, "compressibility test")
             self.compression_height.append(float(h[H_Z]))
             if not settled:
-                self.warnings.append(f"compressibility test: the head was still moving at {stress:.0f} Pa after "
+                self.warnings.append(f"compressibility test: the piston was still moving at {stress:.0f} Pa after "
                                      f"{t_max:.3g} s")
             self.log(f"t={self.time:.5f} s compressed at {stress:.0f} Pa: σ = {sigma:.0f} Pa, bed height "
                      f"{h[H_Z] * 1e3:.3f} mm, bulk density {self.bulk():.0f} kg/m³")
+        self.sys, self.z_ceiling = poured, ceiling
+        self.log(f"t={self.time:.5f} s the poured bed put back for the shear test")
 
     def insert_blades(self, highest: float) -> None:
         """Take the turning blades into the bed under a low stress
@@ -372,6 +389,8 @@ class ShearTestDriver:
         """The whole test."""
         p = self.spec.procedure
         self.pour()
+        if p.compressibility_stresses:
+            self.compress()
         self.consolidate()
         for k, sigma in enumerate(p.shear_stresses):
             if k > 0:

@@ -37,8 +37,8 @@ from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES, STEADY_PRESHEAR
 from calibrax.core.sheartest.result import LOST_BED_FRACTION, Provenance, ShearTestResult, StepRecord
 from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
-from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MIN_TIME,
-                                            CONSOLIDATION_LIMIT_FACTOR,
+from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MAX_TIME,
+                                            COMPRESSION_MIN_TIME, CONSOLIDATION_LIMIT_FACTOR,
                                             CONSOLIDATION_LIMIT_ROTATION, INSERTION_FRICTION, INSERTION_STRESS_FRACTION,
                                             INSERTION_TIME_FACTOR, INSERTION_TOLERANCE_RADII, MAX_SPEED, POUR_FRICTION,
                                             POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, insertion_time_limit)
@@ -55,6 +55,7 @@ __all__ = [
     "INSERTION_STRESS_FRACTION", "INSERTION_FRICTION", "INSERTION_TIME_FACTOR", "INSERTION_TOLERANCE_RADII",
     "CONSOLIDATION_LIMIT_FACTOR", "CONSOLIDATION_LIMIT_ROTATION", "insertion_time_limit", "POUR_FRICTION",
     "POUR_GRAVITY", "POUR_SPEED", "APPROACH_SPEED", "APPROACH_CLEARANCE", "UNLOAD_MAX_ROTATION", "MAX_SPEED",
-    "COMPRESSION_MIN_TIME", "SPLIT_HEIGHT_FRACTION", "bed_top", "compressibility_percent", "conditioned_bulk_density",
+    "COMPRESSION_MIN_TIME", "COMPRESSION_MAX_TIME", "SPLIT_HEIGHT_FRACTION", "bed_top", "compressibility_percent",
+    "conditioned_bulk_density",
     "rebase_compressibility", "volume_below",
 ]

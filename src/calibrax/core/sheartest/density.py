@@ -8,9 +8,10 @@
   out of the measurement: at ``tiny`` (numba_dem, μs = 0.35) six seeds scattered by 8 kg/m³
   (0.5 %), against 16 kg/m³ for the density under the head after the preshear.
 * **Compressibility**: the FT4 compresses the conditioned bed with a vented piston through a
-  ramp of normal stresses and reports the volume's change in percent. Here the head compresses
-  the bed through ``procedure.compressibility_stresses`` and the result carries the bed's height
-  at each; the compressibility at σ is the volume lost since the ramp's first stress,
+  ramp of normal stresses and reports the volume's change in percent, on a sample of its own.
+  Here the head, its blades retracted, compresses a copy of the poured bed through
+  ``procedure.compressibility_stresses`` (the shear test runs on the original) and the result
+  carries the bed's height at each; the compressibility at σ is the volume lost since the ramp's first stress,
   100 (1 − h(σ)/h(σ₁)) %. Measured from the first stress of the same run, it does not carry the
   bias a small cell's walls give the absolute density (they cancel in the ratio).
 """

@@ -151,9 +151,11 @@ class Procedure:
         peak_window: width of the running mean the peak is taken from, rad of rotation.
         compressibility_stresses: the FT4 compressibility test's normal stresses, Pa, increasing,
             the last at most the preshear stress (e.g. 1, 2, 4, 6, 8, 10, 12, 15 kPa); () = no
-            compressibility ramp (the default). When set, the head compresses the bed through them
-            without turning, after the blades are in and before consolidation, holding each until
-            the head has stopped sinking, and the result carries the bed's height at each
+            compressibility ramp (the default). When set, the head, its blades retracted (a flat
+            piston, as the FT4's vented piston), compresses a copy of the poured bed through them
+            without turning, holding each until it has stopped sinking; the shear test then runs
+            on the poured bed as it was (the FT4 tests a fresh sample), and the result carries
+            the ramp's bed height at each
             (:attr:`ShearTestResult.compression_height`; features ``compressibility_<σ>kPa``).
     """
 

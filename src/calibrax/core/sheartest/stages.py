@@ -42,9 +42,11 @@ CONSOLIDATION_LIMIT_FACTOR = 6.0
 CONSOLIDATION_LIMIT_ROTATION = 1.0
 
 #: each stress of the compressibility ramp (procedure.compressibility_stresses) is held at least
-#: this long, s, and then until the head has stopped sinking, at most the consolidation's minimum
-#: time (the FT4 holds each for 60 s; a DEM bed settles within milliseconds)
+#: this long, s, and then until the head has stopped sinking, at most COMPRESSION_MAX_TIME (the
+#: FT4 holds each for 60 s; a DEM bed settles within milliseconds: tiny's consolidations, turning,
+#: within 0.033–0.036 s)
 COMPRESSION_MIN_TIME = 6.0e-3
+COMPRESSION_MAX_TIME = 0.05
 
 #: the blades go into the bed under this fraction of the preshear stress, before the bed is
 #: consolidated. Placed above the bed and brought down by the servo at the preshear stress, the
