@@ -1,7 +1,35 @@
 """calibrax-numba-dem: the in-house Numba DEM backend of calibrax (Hertz–Mindlin, tangential
 history, EPSD2 rolling resistance, optional SJKR cohesion; analytic FT4 shear cell)."""
 
+import os as _os
+import sys as _sys
+from pathlib import Path as _Path
+
 __version__ = "0.1.0"
+
+
+def _private_kernel_cache() -> None:
+    """Keep the compiled kernels in a folder named by the sources' key (:mod:`.cache_key`) when the
+    caller has not chosen one (``make`` and the test suite set NUMBA_CACHE_DIR themselves).
+
+    Numba checks a cached kernel against its own file only, not the files it inlines from, so its
+    default cache beside the sources served a benchmark run (``python benchmarks/…``) stale
+    kernels: the diagnosis design's simulations run before a change to geometry.py forced a
+    recompile (2026-12-02) gave other peaks than the same seeds on a fresh cache (its "baseline 4":
+    peak τ/σ 0.971 at 9 kPa against 0.868, the same with the code before that change). Set before
+    any kernel is defined; inherited by the simulations' processes."""
+    if _os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    from .cache_key import cache_key
+
+    base = _Path(_os.environ.get("XDG_CACHE_HOME") or _Path.home() / ".cache")
+    folder = str(base / "calibrax" / "numba" / cache_key())
+    _os.environ["NUMBA_CACHE_DIR"] = folder
+    if "numba" in _sys.modules:  # imported before us: its config has read the environment already
+        _sys.modules["numba"].config.CACHE_DIR = folder
+
+
+_private_kernel_cache()
 
 from .simulator import NumbaDEMSimulator  # noqa: E402
 
