@@ -31,7 +31,8 @@ EFFECTS = {
     "size_distribution": {"size_distribution": {"kind": "lognormal", "sigma_log": 0.25}},
     "cohesion": {"material": {"bond_number": 0.6}},
 }
-QUANTITIES = (("conditioned_bulk_density", "CBD", "kg/m³", ".0f"), ("bulk_density", "ρ after preshear", "kg/m³", ".0f"),
+QUANTITIES = (("conditioned_bulk_density", "CBD", "kg/m³", ".0f"),
+              ("bulk_density", "ρ after preshear", "kg/m³", ".0f"),
               ("compressibility", "CPS 15 kPa", "%", ".2f"))
 
 

@@ -241,7 +241,7 @@ def _without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
         node = out
         for key in parents:
             node = node.get(key, {}) if isinstance(node, dict) else {}
-        if isinstance(node, dict) and last in node and node[last] == default:
+        if isinstance(node, dict) and last in node and node[last] == json.loads(json.dumps(default)):
             del node[last]
     return out
 

@@ -266,7 +266,8 @@ def load_compressibility(path: Path, replicates: list[int]) -> dict[int, tuple[n
         m = rep == r
         s_r, c_r = sigma[m], pct[m]
         if r not in replicates:
-            raise ExperimentError(f"{path}: replicate", f"replicate {r} is not in the points CSV; allowed: {replicates}")
+            raise ExperimentError(f"{path}: replicate",
+                                  f"replicate {r} is not in the points CSV; allowed: {replicates}")
         if s_r.size < 2:
             raise ExperimentError(f"{path}: normal_stress_pa", f"replicate {r} has {s_r.size} stress; a ramp needs "
                                   "at least two")
@@ -329,8 +330,8 @@ def load_experiment(path: str | Path) -> Experiment:
             for k, v in material.items()):
         raise ExperimentError(f"{path}: material", f"must map material fields to numbers, got {material!r}")
     source = str(header.get("source") or exp.source)
-    files = (exp.files + tuple(str(path.parent / header[key]) for key in ("curves", "compressibility") if header.get(key))
-             + (str(path),))
+    extra = tuple(str(path.parent / header[key]) for key in ("curves", "compressibility") if header.get(key))
+    files = exp.files + extra + (str(path),)
     return dataclasses.replace(exp, preshear_stress=float(pre), curves=curves, source=source, files=files,
                                bulk_density=density, wall_friction_angle_deg=wall_angle,
                                conditioned_bulk_density=conditioned, compressibility=compressibility,

@@ -28,8 +28,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from calibrax.core.data.experiment import Experiment
     from calibrax.core.sheartest import ShearTestResult
 
-__all__ = ["step_mean", "feature_stress", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix", "feature_def",
-           "result_features", "experiment_features", "FeatureSummary", "summarise", "STILL_RISING_POSITION"]
+__all__ = ["step_mean", "feature_stress", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix",
+           "feature_def", "result_features", "experiment_features", "FeatureSummary", "summarise", "STILL_RISING_POSITION"]
 
 
 @dataclass(frozen=True)
