@@ -6,9 +6,10 @@ compressibility ramp, per effect, over seeds, side by side in one run.
 
 Each row runs the shear test with ``procedure.compressibility_stresses`` = 1, 2, 4, 6, 8, 10, 12,
 15 kPa at the quickstart's material (E = 20 GPa, μs = 0.35) with one effect at the diagnosis
-benchmark's medium magnitude (wall friction 0.25, σ of ln r 0.25, Bond number 0.6), and prints per
+benchmark's medium magnitude (wall friction 0.25, σ of ln r 0.25, Bond number 0.6) or with the unlisted effect (rolling friction
+0.15 or 0 against the model's 0.5), and prints per
 effect the mean ± seed s.d. of the conditioned bulk density, the bulk density after the first
-preshear and the compressibility at 15 kPa, and each one's shift from no effect in noise units of a
+preshear, the compressibility at 15 kPa, the mean peak τ/σ and the angle of internal friction, and each one's shift from no effect in noise units of a
 3-replicate mean (the no-effect seed s.d. / √3). Prints; writes nothing.
 """
 
@@ -30,10 +31,16 @@ EFFECTS = {
     "wall_friction": {"geometry": {"wall_friction": 0.25}},
     "size_distribution": {"size_distribution": {"kind": "lognormal", "sigma_log": 0.25}},
     "cohesion": {"material": {"bond_number": 0.6}},
+    # the diagnosis benchmark's unlisted effect (particle shape through rolling friction, the
+    # model's μr being 0.5) at its old magnitude and at none at all
+    "rolling_friction_0.15": {"material": {"rolling_friction": 0.15}},
+    "rolling_friction_0": {"material": {"rolling_friction": 0.0}},
 }
 QUANTITIES = (("conditioned_bulk_density", "CBD", "kg/m³", ".0f"),
               ("bulk_density", "ρ after preshear", "kg/m³", ".0f"),
-              ("compressibility", "CPS 15 kPa", "%", ".2f"))
+              ("compressibility", "CPS 15 kPa", "%", ".2f"),
+              ("peak_ratio", "mean peak τ/σ", "", ".3f"),
+              ("aif", "AIF", "°", ".1f"))
 
 
 def run_one(preset: str, effect: str, seed: int) -> dict[str, float]:
@@ -48,7 +55,9 @@ def run_one(preset: str, effect: str, seed: int) -> dict[str, float]:
     with tempfile.TemporaryDirectory(prefix="calibrax-density-") as work:
         result = get_manager().create("simulator", "numba_dem").simulate(spec.validate(), Path(work))
     return {"conditioned_bulk_density": result.conditioned_bulk_density, "bulk_density": float(result.bulk_density[0]),
-            "compressibility": float(result.compressibility[-1]), "wall_time": result.provenance.wall_time}
+            "compressibility": float(result.compressibility[-1]),
+            "peak_ratio": float(np.mean(result.peak_shear_stress / result.target_normal_stress)),
+            "aif": float(result.yield_locus().aif_deg), "wall_time": result.provenance.wall_time}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, LISTED_AND_UNLISTED,
-                                                MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
-                                                MeasurementNoise, RollingFriction, expected_answer, opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
+                                                MeasurementNoise, RollingFriction, expected_answer, listed_and_unlisted,
+                                                opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.benchmark.scores import Answer
 from calibrax.diagnosis.effects import EffectParameter
@@ -156,31 +156,33 @@ def measurement_noise(features: dict[str, float], noise: MeasurementNoise, rng: 
 def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[CaseLabel]:
     """``per_class`` cases of every magnitude of every listed effect, ``per_class`` × 3 of no
     effect, and ``per_class`` × 2 of an unlisted effect alone and of a listed and an unlisted one
-    together (:data:`~calibrax.diagnosis.benchmark.cases.LISTED_AND_UNLISTED`), all at the
+    together (:func:`~calibrax.diagnosis.benchmark.cases.listed_and_unlisted`, in turn), all at the
     model's answer: the campaign's answer is then the truth's calibrated parameters, so the gap
     "before" is the hidden effect's alone and the oracle (those parameters with the effect) is the
     truth itself. Cases made elsewhere than at the answer carry a parameter mismatch in their gap
     that a campaign calibrated on them would not leave; the DEM level's cases do (see there)."""
-    rows = []
+    rows = []   # class, level, params, effects, expected answer
 
     def params() -> dict[str, float]:
         return dict(model.centre)
 
+    listed = []
     for e in model.effects():
         pname = e.parameters[0].name
         if pname not in MAGNITUDES:
             continue
+        listed.append((e.name, pname))
         for level, value in MAGNITUDES[pname].items():
-            rows += [(e.name, level, params(), {pname: value}) for _ in range(per_class)]
-    rows += [(CLASS_NONE, "", params(), {}) for _ in range(3 * per_class)]
-    rows += [(CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH})
-             for _ in range(2 * per_class)]
-    if any(e.name == "wall_friction" for e in model.effects()):
-        rows += [(CLASS_MIXED, "wall friction + rolling friction", params(), dict(LISTED_AND_UNLISTED))
-                 for _ in range(2 * per_class)]
+            rows += [(e.name, level, params(), {pname: value}, e.name) for _ in range(per_class)]
+    rows += [(CLASS_NONE, "", params(), {}, NO_EFFECT) for _ in range(3 * per_class)]
+    rows += [(CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH},
+              expected_answer(CLASS_UNLISTED)) for _ in range(2 * per_class)]
+    mixed = listed_and_unlisted(listed)
+    rows += [(CLASS_MIXED, f"{name} + rolling friction", params(), dict(effects), name)
+             for k in range(2 * per_class) for name, effects in [mixed[k % len(mixed)]]] if mixed else []
     ids = opaque_ids(len(rows), seed)
-    return sorted((CaseLabel(i, k, expected_answer(k), lvl, "emulator", p, eff) for i, (k, lvl, p, eff) in zip(ids, rows)),
-                  key=lambda c: c.case)
+    return sorted((CaseLabel(i, k, expected, lvl, "emulator", p, eff)
+                   for i, (k, lvl, p, eff, expected) in zip(ids, rows)), key=lambda c: c.case)
 
 
 def make_case(truth: TruthEmulator, label: CaseLabel, noise: MeasurementNoise, replicates: int,

@@ -14,9 +14,8 @@ from dataclasses import dataclass
 
 from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, point_spec
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, LISTED_AND_UNLISTED,
-                                                MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
-                                                RollingFriction, expected_answer, opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
+                                                RollingFriction, expected_answer, listed_and_unlisted, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import SEED_BASE
 
@@ -52,24 +51,27 @@ def plan_dem(model: BenchmarkModel, per_class: int = 3, other_backends: dict[str
              seed: int = 0) -> list[PlannedCase]:
     """The DEM level's cases (see the module docstring), with opaque ids."""
     other_backends = {"liggghts": ("wall_friction",)} if other_backends is None else other_backends
-    rows: list[tuple[str, str, str, dict[str, float], dict[str, float]]] = []   # class, level, backend, params, effects
+    # class, level, backend, params, effects, expected answer
+    rows: list[tuple[str, str, str, dict[str, float], dict[str, float], str]] = []
+    mixed = listed_and_unlisted(listed_classes(model))
 
     def add(backend: str, klass: str) -> None:
         for k in range(per_class):
             params = dict(TRUTH_PARAMS[k % len(TRUTH_PARAMS)])
             if klass == CLASS_NONE:
-                rows.append((klass, "", backend, params, {}))
+                rows.append((klass, "", backend, params, {}, expected_answer(klass)))
             elif klass == CLASS_UNLISTED:
-                rows.append((klass, "rolling friction", backend, params, {"rolling_friction": ROLLING_FRICTION_TRUTH}))
+                rows.append((klass, "rolling friction", backend, params, {"rolling_friction": ROLLING_FRICTION_TRUTH},
+                             expected_answer(klass)))
             elif klass == CLASS_MIXED:
-                rows.append((klass, "wall friction + rolling friction", backend, params, dict(LISTED_AND_UNLISTED)))
+                name, effects = mixed[k % len(mixed)]
+                rows.append((klass, f"{name} + rolling friction", backend, params, dict(effects), name))
             else:
                 pname = dict(listed_classes(model))[klass]
                 level = LEVELS[k % len(LEVELS)]
-                rows.append((klass, level, backend, params, {pname: MAGNITUDES[pname][level]}))
+                rows.append((klass, level, backend, params, {pname: MAGNITUDES[pname][level]}, klass))
 
-    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED] + (
-        [CLASS_MIXED] if any(e.name == "wall_friction" for e in model.effects()) else [])
+    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED] + ([CLASS_MIXED] if mixed else [])
     for klass in classes:
         add(model.simulator, klass)
     for backend, kinds in other_backends.items():
@@ -77,8 +79,8 @@ def plan_dem(model: BenchmarkModel, per_class: int = 3, other_backends: dict[str
             add(backend, klass)
     ids = opaque_ids(len(rows), seed)
     out = []
-    for i, ((klass, level, backend, params, effects), case) in enumerate(zip(rows, ids)):
-        label = CaseLabel(case, klass, expected_answer(klass), level, backend, params, effects)
+    for i, ((klass, level, backend, params, effects, expected), case) in enumerate(zip(rows, ids)):
+        label = CaseLabel(case, klass, expected, level, backend, params, effects)
         oracle = klass not in OTHER_CLASSES
         out.append(PlannedCase(label, tuple(TRUTH_SEED_BASE + 10 * i + r for r in range(REPLICATES)),
                                tuple(ORACLE_SEED_BASE + 10 * i + r for r in range(ORACLE_SEEDS)) if oracle else ()))
