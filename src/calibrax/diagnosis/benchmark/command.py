@@ -82,8 +82,10 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
          "confusion": result.confusion.tolist(), "top1": result.top1, "top2": result.top2, "counts": result.counts,
          "top1_by_class": result.top1_by_class, "false_alarms": result.false_alarms, "unlisted_rejected": result.unlisted_rejected,
          "mixed_named": result.mixed_named, "mixed_flagged": result.mixed_flagged, "n_mixed": result.n_mixed,
+         "mixed_by_effect": {k: {"named": named, "flagged": flagged, "cases": n}
+                             for k, (named, flagged, n) in result.mixed_by_effect.items()},
          "magnitude_error": result.magnitude_error, "shrinkage_ratio": result.shrinkage_ratio,
-         "shrinkage_by_class": result.shrinkage_by_class,
+         "shrinkage_by_class": result.shrinkage_by_class, "shrinkage_counts": result.shrinkage_counts,
          "goals": {name: ok for name, ok in result.goals()}, "cases": result.per_case,
          "wall_time": time.monotonic() - started}, indent=1, default=float))
     sc.confusion_figure(result, out / "confusion.png", title)

@@ -16,9 +16,14 @@ Scores (over the cases of the labels file that have an answer):
   recalibration's, else the design posterior's), over the cases whose verdict is right;
 * **shrinkage against the oracle**: the diagnosis's held-out shrinkage over the oracle's (the
   true effect at its true magnitude, simulated with fresh seeds and compared on the same
-  held-out features against the same "before"), over the cases where the oracle shrinks the gap
-  by at least :data:`MIN_ORACLE_SHRINKAGE` (elsewhere the ratio is one of two noises); a case the
-  diagnosis recalibrated nothing for shrank by 0.
+  held-out features against the same "before"), over the cases where the held-out features show
+  the effect: their gap before is beyond what seed noise alone gives (:data:`MIN_GAP_BEFORE`) and
+  the oracle shrinks it by at least :data:`MIN_ORACLE_SHRINKAGE` (elsewhere the ratio is one of
+  two noises); a case the diagnosis recalibrated nothing for shrank by 0. A class with fewer than
+  :data:`MIN_SHRINKAGE_CASES` such cases is reported, not judged: the held-out features do not
+  see that effect (at ``tiny``, cohesion and a size distribution move the locus and the
+  densities the recalibration is fitted to, and barely the flow and the τ curves' shape);
+* **listed + unlisted** per listed effect as well (:attr:`Scores.mixed_by_effect`).
 """
 
 from __future__ import annotations
@@ -40,6 +45,15 @@ GOAL_TOP1, GOAL_FALSE_ALARMS, GOAL_SHRINKAGE, GOAL_UNLISTED = 0.8, 0.1, 0.7, 0.5
 #: the oracle's held-out shrinkage a case needs for its ratio to count: where the true effect
 #: itself explains less than a quarter of the held-out gap, that gap is noise and the ratio too
 MIN_ORACLE_SHRINKAGE = 0.25
+#: the held-out gap before (RMS z) a case needs for its ratio to count: the 95 % quantile of the RMS
+#: of four independent standard normal z, √(χ²₄,0.95 / 4) (the default split holds out four
+#: features: the preshear and post-peak τ/σ, the initial slope and the peak prominence). Measured
+#: at the emulator level: of the cohesion cases the former rule counted (17 of 30), the held-out gap
+#: before was 0.5 to 1.8, the seed noise's own size, and the ratio swung from 81 % to 39 % when the
+#: shipped design's rolling-friction block alone was remade
+MIN_GAP_BEFORE = 1.54
+#: a class needs this many counted cases for its median shrinkage ratio to be judged against the goal
+MIN_SHRINKAGE_CASES = 5
 
 
 @dataclass(frozen=True)
@@ -172,6 +186,8 @@ class Scores:
     mixed_named: float = math.nan
     mixed_flagged: float = math.nan
     n_mixed: int = 0
+    #: the same per listed effect: {effect: (named, named and flagged, cases)}
+    mixed_by_effect: dict[str, tuple[float, float, int]] = field(default_factory=dict)
 
     def goals(self) -> list[tuple[str, bool | None]]:
         """Each goal met (True), not met (False) or without a case to judge it (None)."""
@@ -187,7 +203,8 @@ class Scores:
                  judged(self.unlisted_rejected, self.unlisted_rejected >= GOAL_UNLISTED)),
                 (f"median shrinkage ≥ {GOAL_SHRINKAGE:.0%} of the oracle's",
                  judged(self.shrinkage_ratio, self.shrinkage_ratio >= GOAL_SHRINKAGE))]
-        out += [(f"median shrinkage, {k}, ≥ {GOAL_SHRINKAGE:.0%} of the oracle's", judged(v, v >= GOAL_SHRINKAGE))
+        out += [(f"median shrinkage, {k}, ≥ {GOAL_SHRINKAGE:.0%} of the oracle's",
+                 judged(v if self.shrinkage_counts.get(k, 0) >= MIN_SHRINKAGE_CASES else math.nan, v >= GOAL_SHRINKAGE))
                 for k, v in self.shrinkage_by_class.items()]
         return out
 
@@ -226,9 +243,10 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
                 got = a.magnitude.get(name)
                 if got is not None and truth != 0:
                     errors.append(abs(got - truth) / abs(truth))
-    ratios, ratios_by_class = [], {}
+    ratios, ratios_by_class = [], {k: [] for k in sorted({lab.klass for lab, _ in listed})}
     for lab, a in listed:
-        if math.isfinite(a.oracle_shrinkage) and a.oracle_shrinkage >= MIN_ORACLE_SHRINKAGE:
+        if (math.isfinite(a.oracle_shrinkage) and a.oracle_shrinkage >= MIN_ORACLE_SHRINKAGE
+                and a.gap_before >= MIN_GAP_BEFORE):
             mine = a.shrinkage if math.isfinite(a.shrinkage) else 0.0
             ratios.append(mine / a.oracle_shrinkage)
             ratios_by_class.setdefault(lab.klass, []).append(ratios[-1])
@@ -241,10 +259,20 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
                   _rate([a.verdict == NONE_OF_THEM for a in unlisted]), len(unlisted),
                   float(np.median(errors)) if errors else math.nan, errors,
                   float(np.median(ratios)) if ratios else math.nan, ratios, per_case, by_class, by_class_n,
-                  {k: float(np.median(v)) for k, v in sorted(ratios_by_class.items())},
+                  {k: float(np.median(v)) if v else math.nan for k, v in sorted(ratios_by_class.items())},
                   {k: len(v) for k, v in sorted(ratios_by_class.items())},
                   _rate([a.verdict == lab.expected for lab, a in mixed]),
-                  _rate([a.verdict == lab.expected and bool(a.unexplained) for lab, a in mixed]), len(mixed))
+                  _rate([a.verdict == lab.expected and bool(a.unexplained) for lab, a in mixed]), len(mixed),
+                  _mixed_by_effect(mixed))
+
+
+def _mixed_by_effect(mixed: list[tuple[CaseLabel, Answer]]) -> dict[str, tuple[float, float, int]]:
+    out = {}
+    for effect in sorted({lab.expected for lab, _ in mixed}):
+        sel = [(lab, a) for lab, a in mixed if lab.expected == effect]
+        out[effect] = (_rate([a.verdict == effect for _, a in sel]),
+                       _rate([a.verdict == effect and bool(a.unexplained) for _, a in sel]), len(sel))
+    return out
 
 
 def _rate(flags: list[bool]) -> float:
@@ -269,13 +297,18 @@ def table(scores: Scores, title: str = "") -> str:
     if s.n_mixed:
         lines.append(f"| listed + unlisted: the listed one named | {_pct(s.mixed_named)} | {s.n_mixed} |")
         lines.append(f"| listed + unlisted: named, and the gap it leaves flagged | {_pct(s.mixed_flagged)} | {s.n_mixed} |")
+        for k, (named, flagged, n) in s.mixed_by_effect.items():
+            lines.append(f"| listed + unlisted, {k} + the unlisted one: named; named and flagged | "
+                         f"{_pct(named)}; {_pct(flagged)} | {n} |")
     lines.append(f"| magnitude error, median relative (of the value the diagnosis tells: the recalibration's) | "
                  f"{_pct(s.magnitude_error)} | {len(s.magnitude_errors)} |")
-    lines.append(f"| shrinkage / oracle's, median (oracle shrinks ≥ {MIN_ORACLE_SHRINKAGE:.0%}) | "
-                 f"{_pct(s.shrinkage_ratio)} | {len(s.shrinkage_ratios)} |")
+    lines.append(f"| shrinkage / oracle's, median (held-out gap before ≥ {MIN_GAP_BEFORE} RMS z, oracle shrinks it "
+                 f"≥ {MIN_ORACLE_SHRINKAGE:.0%}) | {_pct(s.shrinkage_ratio)} | {len(s.shrinkage_ratios)} |")
     for k, v in s.shrinkage_by_class.items():
-        lines.append(f"| shrinkage / oracle's, {k} | {_pct(v)} | {s.shrinkage_counts[k]} |")
-    verdict = {True: "met", False: "NOT met", None: "no cases"}
+        few = (f" (fewer than {MIN_SHRINKAGE_CASES} cases whose held-out features show the effect: not judged)"
+               if s.shrinkage_counts[k] < MIN_SHRINKAGE_CASES else "")
+        lines.append(f"| shrinkage / oracle's, {k}{few} | {_pct(v)} | {s.shrinkage_counts[k]} |")
+    verdict = {True: "met", False: "NOT met", None: "not judged (too few cases)"}
     lines += ["", "Goals: " + "; ".join(f"{name}: {verdict[ok]}" for name, ok in s.goals()), "",
               "| class \\ verdict | " + " | ".join(s.verdicts) + " |", "|---" * (len(s.verdicts) + 1) + "|"]
     for i, k in enumerate(s.classes):
