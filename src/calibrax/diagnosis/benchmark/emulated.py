@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
-                                                MeasurementNoise, RollingFriction, expected_answer, listed_and_unlisted,
-                                                opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES,
+                                                ROLLING_FRICTION_TRUTH, CaseLabel, MeasurementNoise, RollingFriction,
+                                                expected_answer, listed_and_unlisted, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.benchmark.scores import Answer
 from calibrax.diagnosis.effects import EffectParameter
@@ -161,25 +161,24 @@ def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[Case
     "before" is the hidden effect's alone and the oracle (those parameters with the effect) is the
     truth itself. Cases made elsewhere than at the answer carry a parameter mismatch in their gap
     that a campaign calibrated on them would not leave; the DEM level's cases do (see there)."""
+    from calibrax.diagnosis.benchmark.plan import listed_classes
+
     rows = []   # class, level, params, effects, expected answer
 
     def params() -> dict[str, float]:
         return dict(model.centre)
 
-    listed = []
-    for e in model.effects():
-        pname = e.parameters[0].name
-        if pname not in MAGNITUDES:
-            continue
-        listed.append((e.name, pname))
+    listed = listed_classes(model)
+    for name, pname in listed:
         for level, value in MAGNITUDES[pname].items():
-            rows += [(e.name, level, params(), {pname: value}, e.name) for _ in range(per_class)]
+            rows += [(name, level, params(), {pname: value}, name) for _ in range(per_class)]
     rows += [(CLASS_NONE, "", params(), {}, NO_EFFECT) for _ in range(3 * per_class)]
     rows += [(CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH},
               expected_answer(CLASS_UNLISTED)) for _ in range(2 * per_class)]
     mixed = listed_and_unlisted(listed)
-    rows += [(CLASS_MIXED, f"{name} + rolling friction", params(), dict(effects), name)
-             for k in range(2 * per_class) for name, effects in [mixed[k % len(mixed)]]] if mixed else []
+    if mixed:
+        pairs = (mixed[k % len(mixed)] for k in range(2 * per_class))
+        rows += [(CLASS_MIXED, f"{name} + rolling friction", params(), dict(effects), name) for name, effects in pairs]
     ids = opaque_ids(len(rows), seed)
     return sorted((CaseLabel(i, k, expected, lvl, "emulator", p, eff)
                    for i, (k, lvl, p, eff, expected) in zip(ids, rows)), key=lambda c: c.case)

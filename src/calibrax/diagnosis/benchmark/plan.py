@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, point_spec
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES, ROLLING_FRICTION_TRUTH, CaseLabel,
-                                                RollingFriction, expected_answer, listed_and_unlisted, opaque_ids)
+from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES,
+                                                ROLLING_FRICTION_TRUTH, CaseLabel, RollingFriction, expected_answer,
+                                                listed_and_unlisted, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import SEED_BASE
 
@@ -71,7 +72,8 @@ def plan_dem(model: BenchmarkModel, per_class: int = 3, other_backends: dict[str
                 level = LEVELS[k % len(LEVELS)]
                 rows.append((klass, level, backend, params, {pname: MAGNITUDES[pname][level]}, klass))
 
-    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED] + ([CLASS_MIXED] if mixed else [])
+    classes = [name for name, _ in listed_classes(model)] + [CLASS_NONE, CLASS_UNLISTED] + (
+        [CLASS_MIXED] if mixed else [])
     for klass in classes:
         add(model.simulator, klass)
     for backend, kinds in other_backends.items():
