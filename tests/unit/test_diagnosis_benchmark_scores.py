@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from calibrax.diagnosis.benchmark.cases import CaseLabel, read_labels, write_labels
-from calibrax.diagnosis.benchmark.scores import Answer, read_answers, score, table, write_answers
+from calibrax.diagnosis.benchmark.scores import Answer, noise_gap_limit, read_answers, score, table, write_answers
 from calibrax.errors import ConfigError
 
 NONE_OF = "none of the candidates"
@@ -117,6 +117,18 @@ def test_scores_count_right(monkeypatch):
     assert "not judged" in text
     monkeypatch.setattr("calibrax.diagnosis.benchmark.scores.MIN_SHRINKAGE_CASES", 1)
     assert list(dict(s.goals()).values()) == [False, False, True, False, True, False, False, True]
+
+
+def test_the_noise_limit_of_a_held_out_gap_is_the_rms_z_quantile():
+    # √(χ²₄(0.95) / 4) = √(9.488 / 4); fewer features scatter more; 0 (not recorded) reads as four
+    assert noise_gap_limit(4) == pytest.approx(1.540, abs=1e-3)
+    assert noise_gap_limit(1) == pytest.approx(1.960, abs=1e-3)
+    assert noise_gap_limit(2) > noise_gap_limit(4) > noise_gap_limit(8) > 1.0
+    assert noise_gap_limit(0) == noise_gap_limit(4)
+    # a case over eight held-out features counts at a gap that four would not
+    eight = Answer("c3", "none", ("none",), {}, {}, 1.45, 1.45, 0.2, held_out=8)
+    assert Answer.from_dict(eight.to_dict()).held_out == 8
+    assert score([_label("c3", "wall_friction", "small")], [eight]).shrinkage_ratios == [0.0]
 
 
 def test_labels_and_answers_round_trip(tmp_path):

@@ -222,7 +222,7 @@ def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str
     models = ranking.models
     return Answer(case, ranking.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
                   {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after,
-                  unexplained=ranking.unexplained)
+                  unexplained=ranking.unexplained, held_out=len(judge))
 
 
 @contextmanager
