@@ -123,8 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "36 for three effects)")
     diag.add_argument("--fit-on", default="locus,density", metavar="GROUPS",
                       help="feature groups the recalibration is fitted to; the others judge it. Groups: locus (peak "
-                           "τ/σ per step), density (bulk density at the preshear stress), flow (preshear and post-peak "
-                           "τ/σ), shape (initial slope and peak prominence of the τ curves). Default: locus,density")
+                           "τ/σ per step), density (bulk density after the preshear, conditioned bulk density), "
+                           "compressibility (CPS at the ramp's top stress), flow (preshear and post-peak τ/σ), shape "
+                           "(initial slope and peak prominence of the τ curves). Default: locus,density")
     diag.add_argument("--seed", type=int, default=0, help="the design's seed (default 0)")
     diag.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.diagnosis/)")
     diag.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")

@@ -97,7 +97,7 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
 @pytest.mark.parametrize("args, key", [
     (["--effects", "wall_friction,bogus"], "--effects"),
     (["--budget", "5"], "--budget"),
-    (["--fit-on", "locus,density,flow,shape"], "--fit-on"),
+    (["--fit-on", "locus,density,compressibility,flow,shape"], "--fit-on"),
     (["--fit-on", "curves"], "--fit-on"),
     (["--backend", "nonesuch"], "--backend"),
     (["--workers", "0"], "--workers"),

@@ -94,7 +94,7 @@ def test_feature_gaps_never_take_the_experiments_spread_below_the_seeds() -> Non
     assert not FeatureGap("b", "flow", 1.0, 0.1, 3, 1.1, 0.1, 4).implausible
 
 
-@pytest.mark.parametrize("text", ["", "locus,locus", "curves", "locus,density,flow,shape"])
+@pytest.mark.parametrize("text", ["", "locus,locus", "curves", "locus,density,compressibility,flow,shape"])
 def test_fit_groups_are_checked(text: str) -> None:
     with pytest.raises(ConfigError, match="--fit-on"):
         parse_groups(text)
