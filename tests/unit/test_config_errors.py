@@ -4,6 +4,7 @@ and nothing written."""
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 
 import pytest
 import yaml
@@ -169,3 +170,21 @@ def test_a_field_added_later_leaves_the_search_hash_of_older_stores_alone(tmp_pa
     changed = load_config(write_double_campaign(tmp_path, cell={"preset": "tiny",
                                                                 "geometry": {"wall_rolling_friction": 0.1}}))
     assert changed.search_hash() != config.search_hash()
+
+
+def test_an_experiment_presheared_at_another_stress_than_the_cell_exits_2_naming_the_procedure(tmp_path):
+    """The FT4's 3 kPa test against the paper's 15 kPa procedure would compare two different loci:
+    refused, naming cell.procedure and the preset that matches; accepted with that preset."""
+    import shutil
+
+    from calibrax.core.config import load_config
+
+    snippets = Path(__file__).resolve().parents[2] / "docs" / "_snippets"
+    for name in ("b4c-3kpa.yaml", "b4c-3kpa-points.csv"):
+        shutil.copy(snippets / name, tmp_path / name)
+    wrong = write_double_campaign(tmp_path, experiment="b4c-3kpa.yaml")
+    proc = calibrax_cli("run", str(wrong), "--check")
+    assert proc.returncode == 2, proc.stderr
+    assert "cell.procedure" in proc.stderr and "3 kPa" in proc.stderr and "'ft4_3kpa'" in proc.stderr, proc.stderr
+    right = write_double_campaign(tmp_path, experiment="b4c-3kpa.yaml", cell={"preset": "tiny", "procedure": "ft4_3kpa"})
+    assert load_config(right).spec.procedure.preshear_stress == 3000.0

@@ -47,3 +47,33 @@ def test_the_magnitude_is_scored_on_the_value_the_user_is_told():
                                                    {"wall_friction": {"wall_friction": 0.158}}, 4.0, 1.0).to_dict().items()
                             if k != "recovered"})
     assert old.magnitude == {"wall_friction": 0.158}
+
+
+def test_the_locus_is_every_step_of_the_experiments_procedure():
+    """The FT4's 3 kPa test's steps are the locus as the paper's are; compressibility is its own
+    group, held out by default (where cohesion shows beside the fitted features)."""
+    from calibrax.diagnosis.gap import DEFAULT_FIT, GROUPS, candidate_names, group_of
+
+    low = [{"peak_ratio_1kPa": 0.9, "peak_ratio_2kPa": 0.7, "peak_ratio_1.75kPa": 0.75, "bulk_density": 1500.0}]
+    names = candidate_names(low)
+    assert names[:3] == ("peak_ratio_2kPa", "peak_ratio_1.75kPa", "peak_ratio_1kPa")
+    assert {group_of(n) for n in names[:3]} == {"locus"} and "peak_ratio_9kPa" not in names
+    assert candidate_names([{"bulk_density": 1500.0}])[:4] == GROUPS["locus"]
+    assert group_of("compressibility") == "compressibility" and "compressibility" not in DEFAULT_FIT
+    assert group_of("conditioned_bulk_density") == "density"
+
+
+def test_the_ft4_3kpa_example_gives_its_five_steps_as_the_locus():
+    """The documented 3 kPa experiment (docs/reference/experiment-files.md) loads, and the
+    diagnosis reads its five steps and its preshears."""
+    from pathlib import Path
+
+    from calibrax.core.data.experiment import load_experiment
+    from calibrax.diagnosis.gap import candidate_names, group_of, measured
+
+    example = Path(__file__).resolve().parents[2] / "docs" / "_snippets" / "b4c-3kpa.yaml"
+    replicates = measured(load_experiment(example), 0.015)
+    assert len(replicates) == 3
+    locus = [n for n in candidate_names(replicates) if group_of(n) == "locus"]
+    assert locus == ["peak_ratio_2kPa", "peak_ratio_1.75kPa", "peak_ratio_1.5kPa", "peak_ratio_1.25kPa", "peak_ratio_1kPa"]
+    assert all(0.6 < r["peak_ratio_2kPa"] < 0.8 and 0.6 < r["preshear_ratio"] < 0.75 for r in replicates)

@@ -28,6 +28,8 @@ def test_procedures_paper_and_astm():
     astm = ShearCellSpec.preset("quick", "astm_d7891")
     assert astm.procedure.preshear_stress == 9e3 and astm.procedure.shear_stresses == (7e3, 6e3, 5e3, 4e3, 3e3)
     assert ShearCellSpec.preset("quick").procedure.shear_stresses == (9e3, 8e3, 7e3, 6e3)
+    low = ShearCellSpec.preset("tiny", "ft4_3kpa").validate()
+    assert low.procedure.preshear_stress == 3e3 and low.procedure.shear_stresses == (2e3, 1.75e3, 1.5e3, 1.25e3, 1e3)
 
 
 def test_consolidation_limit_follows_the_procedure():

@@ -117,6 +117,24 @@ class CampaignConfig:
         return f"search hash {made} ≠ {self.search_hash()}"
 
 
+#: the largest relative difference between the experiment's and the cell's preshear stress
+PRESHEAR_TOLERANCE = 0.05
+
+
+def _check_same_preshear(experiment: Experiment, path: Path, spec: ShearCellSpec) -> None:
+    """An experiment preshear at one stress (``preshear_stress_pa``) calibrates a cell that
+    preshears at the same: a 3 kPa test against the 15 kPa procedure compares two different loci."""
+    measured, simulated = float(experiment.preshear_stress), spec.procedure.preshear_stress
+    if math.isfinite(measured) and abs(measured - simulated) > PRESHEAR_TOLERANCE * simulated:
+        from calibrax.core.sheartest.presets import PROCEDURES
+
+        same = [name for name, p in PROCEDURES.items() if abs(p.preshear_stress - measured) <= PRESHEAR_TOLERANCE * measured]
+        hint = f"; the preset {same[0]!r} preshears at {measured / 1e3:g} kPa" if same else ""
+        raise ConfigError("cell.procedure", f"the experiment {path.name} was presheared at {measured / 1e3:g} kPa "
+                          f"(preshear_stress_pa), the cell preshears at {simulated / 1e3:g} kPa; set the cell's "
+                          f"procedure to the test that was measured{hint}")
+
+
 def search_identity(resolved: dict[str, Any], experiment: Experiment | None) -> str:
     """Hash of what defines a search: the resolved config without budget, executor, paths, names,
     the surrogate's options and the enqueued or warm-start points (stored points are data whatever
@@ -393,6 +411,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     except ConfigError as exc:
         raise ConfigError("experiment", str(exc)) from None
     spec = build_spec(raw.get("cell"), raw.get("material"))
+    _check_same_preshear(experiment, exp_path, spec)
     space = ParameterSpace.from_config(raw["parameters"])
     metric, metric_options = _named("metric", raw.get("metric"), "metric", default="c_aif")
     acq_raw = raw.get("acquisition")

@@ -343,7 +343,7 @@ def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace
     (design point 0). Numbers only: ``experiment`` holds each replicate's diagnosis features,
     ``features[i]`` those of design point i's finished simulations, ``failed`` counts the rest."""
     unit, eff, feats, which = _design_arrays(points, features, box, effect_params)
-    names = gaps.usable(tuple(n for g in gaps.GROUPS.values() for n in g), experiment, feats)
+    names = gaps.usable(gaps.candidate_names(experiment), experiment, feats)
     if len(names) < 2:
         raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
                              f"({list(names)}); the diagnosis needs at least two")

@@ -68,7 +68,7 @@ def _combinations(features: tuple[str, ...]) -> tuple[list[str], list[str], np.n
     rows = list(features) + [MEAN_PEAK]
     groups = [gaps.group_of(n) for n in features] + ["locus"]
     weights = np.vstack([np.eye(len(features)), np.zeros((1, len(features)))])
-    locus = [features.index(n) for n in gaps.GROUPS["locus"]]
+    locus = [i for i, n in enumerate(features) if gaps.group_of(n) == "locus"]
     weights[-1, locus] = 1.0 / len(locus)
     return rows, groups, weights
 

@@ -18,9 +18,12 @@ tension and the looser structures it lets survive.
 **The Bond number** is the pull-off force of two particles of the nominal radius over the mean
 contact force that a stress σ puts on them, ⟨F⟩ = π d² σ / (φ Z) (the stress–force relation of a
 random sphere packing, Rothenburg and Bathurst 1989), with the nominal solid fraction φ = 0.6 and
-coordination number Z = 5 of a frictional packing under load. It is taken at the test's preshear
-stress (15 kPa), so that the Bond number at a lower stress σ is (15 kPa / σ) times larger: at the
-FT4's 3 kPa standard preshear five times, at 1 kPa fifteen. Cohesion begins to change a sphere
+coordination number Z = 5 of a frictional packing under load. It is taken at a fixed reference
+stress, :data:`BOND_REFERENCE_STRESS` = 15 kPa (the reference paper's preshear and the FT4's
+standard 15 kPa test), whatever procedure the cell runs, so that a Bond number names one powder:
+at a lower stress σ the same powder's contacts feel (15 kPa / σ) times more of it, five times at
+the FT4's 3 kPa standard preshear (procedure ``ft4_3kpa``), fifteen times at the compressibility
+ramp's first 1 kPa. Cohesion begins to change a sphere
 packing's shear strength near Bo = 1 (Singh, Magnanimo, Saitoh and Luding, 2014); at Bo ≤ 0.1 a
 powder flows freely. For the reference paper's material (E = 25 GPa, ν = 0.25, R = 0.9 mm) at
 15 kPa, Bo = 1 is k ≈ 1.3·10⁸ J/m³; k = 3·10⁷ J/m³ is Bo ≈ 0.012.
@@ -33,6 +36,10 @@ import math
 #: the nominal solid fraction and coordination number of the Bond number's mean contact force
 BOND_SOLID_FRACTION = 0.6
 BOND_COORDINATION = 5.0
+#: the normal stress, Pa, whose mean contact force the Bond number compares the pull-off force
+#: with, for every procedure (a Bond number taken at each procedure's own preshear would make
+#: the same Bo a 5× weaker powder in the FT4's 3 kPa test than in its 15 kPa one)
+BOND_REFERENCE_STRESS = 15.0e3
 
 
 def effective_modulus(youngs_modulus: float, poisson_ratio: float) -> float:

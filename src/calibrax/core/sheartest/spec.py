@@ -39,7 +39,7 @@ class Material:
         cohesion_energy_density: k of the simplified JKR model (LIGGGHTS ``cohesion sjkr``,
             F = k·A with A the contact area), J/m³; 0 = no cohesion (the default).
         bond_number: cohesion in physical units instead of k: the pull-off force of two particles
-            of the nominal radius over the mean contact force at the preshear stress
+            of the nominal radius over the mean contact force at 15 kPa, whatever the procedure
             (:mod:`calibrax.core.sheartest.cohesion`); each backend converts it to its own
             cohesion parameter. 0 = none (the default); set this or ``cohesion_energy_density``.
     """
@@ -270,14 +270,15 @@ class ShearCellSpec:
     def sjkr_energy_density(self) -> float:
         """The SJKR cohesion energy density k, J/m³, of a backend with LIGGGHTS' ``cohesion sjkr``
         law (numba_dem, LIGGGHTS): the material's k, or the k whose pull-off force between two
-        particles of the nominal radius is ``bond_number`` times the mean contact force at the
-        preshear stress (:func:`calibrax.core.sheartest.cohesion.bond_number_energy_density`)."""
-        from calibrax.core.sheartest.cohesion import bond_number_energy_density
+        particles of the nominal radius is ``bond_number`` times the mean contact force at
+        :data:`~calibrax.core.sheartest.cohesion.BOND_REFERENCE_STRESS` (15 kPa) for every procedure
+        (:func:`calibrax.core.sheartest.cohesion.bond_number_energy_density`)."""
+        from calibrax.core.sheartest.cohesion import BOND_REFERENCE_STRESS, bond_number_energy_density
 
         m = self.material
         if m.bond_number > 0.0:
             return bond_number_energy_density(m.bond_number, self.radius, m.youngs_modulus, m.poisson_ratio,
-                                              self.procedure.preshear_stress)
+                                              BOND_REFERENCE_STRESS)
         return m.cohesion_energy_density
 
     def is_cohesive(self) -> bool:
@@ -291,7 +292,7 @@ class ShearCellSpec:
 
         Args:
             fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
-            procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891").
+            procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891", "ft4_3kpa").
             overrides: ``material=Material(...)``, ``radius=...``, ``numerics={...}`` etc.; dicts
                 update the preset's sub-dataclass field by field.
         """

@@ -40,6 +40,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
+from calibrax.core.sheartest.cohesion import BOND_REFERENCE_STRESS
+
 
 @dataclass(frozen=True)
 class MicroMaterial:
@@ -95,9 +97,9 @@ MICRO_CASES: dict[str, tuple[str, dict[str, float]]] = {
     "rolling resistance": ("rolling_resistance", {}),
     "cohesive pull-off Bo=1": ("cohesive_pull_off", {}),
 }
-#: the Bond number, at the reference paper's preshear stress (Pa), of the cohesive pull-off case
+#: the Bond number of the cohesive pull-off case, and its reference stress (Pa): the Bond number's own
 PULL_OFF_BOND_NUMBER = 1.0
-PULL_OFF_STRESS = 15.0e3
+PULL_OFF_STRESS = BOND_REFERENCE_STRESS
 
 
 class FunctionVerification:

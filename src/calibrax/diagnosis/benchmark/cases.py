@@ -50,7 +50,7 @@ from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
 from calibrax.errors import ConfigError
 
 #: the hidden magnitudes of each builtin effect, natural units (wall friction coefficient, σ of
-#: ln r, Bond number at the preshear stress): small is where a tiny cell's seed noise hides it,
+#: ln r, Bond number at 15 kPa): small is where a tiny cell's seed noise hides it,
 #: large near the top of the range the diagnosis explores
 MAGNITUDES: dict[str, dict[str, float]] = {
     "wall_friction": {"small": 0.1, "medium": 0.25, "large": 0.45},
