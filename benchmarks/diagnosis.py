@@ -1,6 +1,6 @@
 """The diagnosis's blind benchmark, both levels, as the issue-20 note reports them.
 
-    .venv/bin/python benchmarks/diagnosis.py                      # emulator level, 10 per class (minutes)
+    .venv/bin/python benchmarks/diagnosis.py                      # emulator level, 30 per class (minutes)
     .venv/bin/python benchmarks/diagnosis.py --level dem --workers 2   # DEM level, 3 per class (hours)
     .venv/bin/python benchmarks/diagnosis.py make-design --workers 2   # re-make the shipped design data
 

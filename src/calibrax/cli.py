@@ -148,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--design", type=Path, metavar="FILE",
                        help="emulator level: the DEM design's data (default: the shipped design-tiny.json)")
     bench.add_argument("--per-class", type=int, metavar="N",
-                       help="cases per class, per magnitude for a listed effect (default: 10 emulator, 3 dem)")
+                       help="cases per class, per magnitude for a listed effect (default: 30 emulator, 3 dem)")
     bench.add_argument("--also", action="append", metavar="BACKEND:CLASSES",
                        help="dem level: make these classes on another truth backend too (repeatable; default "
                             "liggghts:wall_friction; off: the model's backend only)")

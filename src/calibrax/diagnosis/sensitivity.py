@@ -147,7 +147,7 @@ def markdown(table: Sensitivity, title: str) -> str:
              f"and for each candidate effect, at {', '.join(f'{k} = {v:.4g}' for k, v in table.point.items())}; "
              f"from a response surface of {table.n_simulations} simulations. **Bold**: |shift| ≥ {VISIBLE:g}, what a "
              "diagnosis can see. Group: what the experiment must carry (locus: the shear peaks; density: the bulk "
-             "density; flow: preshear values or curves; shape: τ curves).", "",
+             "density or the CBD; compressibility: the compressibility ramp; flow: preshear values or curves; shape: τ curves).", "",
              "| feature | group | value | seed s.d. | " + " | ".join(table.columns) + " |",
              "|---|---|---|---|" + "---|" * len(table.columns)]
     for i, name in enumerate(table.rows):
