@@ -125,10 +125,11 @@ def _check_same_preshear(experiment: Experiment, path: Path, spec: ShearCellSpec
     """An experiment preshear at one stress (``preshear_stress_pa``) calibrates a cell that
     preshears at the same: a 3 kPa test against the 15 kPa procedure compares two different loci."""
     measured, simulated = float(experiment.preshear_stress), spec.procedure.preshear_stress
-    if math.isfinite(measured) and abs(measured - simulated) > PRESHEAR_TOLERANCE * simulated:
+    if math.isfinite(measured) and not math.isclose(measured, simulated, rel_tol=PRESHEAR_TOLERANCE):
         from calibrax.core.sheartest.presets import PROCEDURES
 
-        same = [name for name, p in PROCEDURES.items() if abs(p.preshear_stress - measured) <= PRESHEAR_TOLERANCE * measured]
+        same = [name for name, p in PROCEDURES.items()
+                if math.isclose(p.preshear_stress, measured, rel_tol=PRESHEAR_TOLERANCE)]
         hint = f"; the preset {same[0]!r} preshears at {measured / 1e3:g} kPa" if same else ""
         raise ConfigError("cell.procedure", f"the experiment {path.name} was presheared at {measured / 1e3:g} kPa "
                           f"(preshear_stress_pa), the cell preshears at {simulated / 1e3:g} kPa; set the cell's "
