@@ -75,13 +75,16 @@ def _register_double() -> None:
     os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
 
 
-def write_double_experiment(path: Path, e: float = TRUE_E, mu: float = TRUE_MU) -> Path:
-    """A pseudo-experiment made by the analytic double at (e, mu), three replicates with a small
-    known scatter; the header says so."""
-    from tests.doubles.analytic_simulator import true_locus
+def write_double_experiment(path: Path, e: float = TRUE_E, mu: float = TRUE_MU,
+                            particles_per_diameter: float = 9.0) -> Path:
+    """A pseudo-experiment made by the analytic double at (e, mu) in a cell of
+    ``particles_per_diameter`` (default ``tiny``'s), three replicates with a small known scatter;
+    the header says so."""
+    from tests.doubles.analytic_simulator import fidelity_bias, true_locus
 
     c, aif = true_locus(e, mu)
-    slope = np.tan(np.radians(aif))
+    bias_c, bias_slope = fidelity_bias(particles_per_diameter)
+    c, slope = c + bias_c, np.tan(np.radians(aif)) + bias_slope
     offsets = {1: (0.0, 0.0), 2: (40.0, 0.012), 3: (-40.0, -0.012)}
     lines = [f"# pseudo-experiment from the analytic TEST DOUBLE at E = {e:g} Pa, mu_s = {mu:g}",
              "normal_stress_pa,peak_shear_stress_pa,replicate"]

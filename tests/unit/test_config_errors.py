@@ -17,7 +17,7 @@ CASES = [
     (lambda c: c.update(colour="red"), "colour: unknown key; allowed:"),
     (lambda c: c.pop("simulator"), "simulator: is required"),
     (lambda c: c.update(simulator="fortran_dem"), "simulator: unknown simulator 'fortran_dem'; known: ["),
-    (lambda c: c.update(acquisition={"name": "ucb", "q": 2}), "acquisition: unknown acquisition 'ucb'; known: ['qei'"),
+    (lambda c: c.update(acquisition={"name": "ucb", "q": 2}), "acquisition: unknown acquisition 'ucb'; known: ['mfei', 'mfkg', 'qei'"),
     # double_terms: the third-party-style test plugin (tests/doubles/thirdparty_plugin.py)
     (lambda c: c.update(metric="rmse"), "metric: unknown metric 'rmse'; known: ['c_aif', 'double_terms', 'robust']"),
     (lambda c: c["parameters"]["sliding_friction"].update(low=0.9, high=0.1), "parameters.sliding_friction: low must be < high"),
@@ -36,6 +36,24 @@ CASES = [
     (lambda c: c.update(metric={"name": "c_aif", "scale_aif_deg": -2}), "metric.scale_aif_deg: must be a finite number > 0"),
     (lambda c: c.update(cell={"procedure": "iso_9000"}), "cell.procedure: unknown procedure 'iso_9000'"),
     (lambda c: c.update(description=["batch 3", "B4C"]), "description: must be text, got list"),
+    # multi-fidelity campaigns (fidelities: cheapest first, the target last)
+    (lambda c: c.update(fidelities=["tiny"]), "fidelities: must be a list of two or more fidelity presets"),
+    (lambda c: c.update(fidelities=["tiny", "huge"]), "fidelities[1]: unknown preset 'huge'; allowed: ['paper', 'quick', 'tiny']"),
+    (lambda c: c.update(fidelities=["quick", "tiny"]), "fidelities[1]: costs 70 CPU-s per simulation, no more than fidelities[0]"),
+    (lambda c: c.update(fidelities=["tiny", "tiny"]), "fidelities[1]: preset 'tiny' is listed twice"),
+    (lambda c: c.update(fidelities=["tiny", {"preset": "quick", "cost": -1}]), "fidelities[1].cost: must be a finite number > 0"),
+    (lambda c: c.update(fidelities=["tiny", {"preset": "quick", "colour": 1}]), "fidelities[1].colour: unknown key; allowed:"),
+    (lambda c: c.update(fidelities=["tiny", {"cost": 300}]), "fidelities[1].preset: is required"),
+    (lambda c: c.update(fidelities=["tiny", {"preset": "quick", "initial": 1}]), "fidelities[1].initial: the target fidelity needs at least 2"),
+    (lambda c: c.update(fidelities=[{"preset": "tiny", "initial": -3}, "quick"]), "fidelities[0].initial: must be an integer ≥ 0"),
+    (lambda c: c.update(fidelities=[7, "quick"]), "fidelities[0]: must be a preset name or a mapping"),
+    (lambda c: c.update(fidelities=["tiny", "quick"], cell={}), "acquisition: 'qei' proposes at one fidelity; with fidelities use"),
+    (lambda c: c.update(fidelities=["tiny", "quick"], acquisition="mfei", cell={"preset": "paper"}),
+     "cell.preset: is 'paper', but the campaign's target fidelity (the last of fidelities) is 'quick'"),
+    (lambda c: c.update(fidelities=["tiny", "quick"], acquisition="mfei", cell={"preset": "quick"},
+                        surrogate={"model": "composite"}),
+     "surrogate.model: composite is a one-fidelity model"),
+    (lambda c: c.update(acquisition="mfei"), "acquisition: 'mfei' chooses among fidelities; name them under fidelities"),
 ]
 
 

@@ -38,7 +38,7 @@ def test_broken_entry_point_warns_is_listed_and_others_work(tmp_path):
 def test_builtins_are_registered_like_external_plugins():
     manager = PluginManager()
     manager.load_builtins()
-    assert set(manager.plugins("acquisition")) == {"qei", "qlogei", "qnei", "qlognei", "sobol", "random"}
+    assert set(manager.plugins("acquisition")) == {"qei", "qlogei", "qnei", "qlognei", "sobol", "random", "mfei", "mfkg"}
     assert manager.plugins("metric")["c_aif"].distribution == "calibrax"
     assert manager.plugins("simulator") == {}
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from calibrax.core.data.experiment import Experiment, experiment_fingerprint, load_experiment
+from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_fidelity, is_multi_fidelity
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
@@ -46,6 +47,8 @@ ROOT_KEYS = {
     "enqueue": "a list of {parameter: value} points to simulate first, before the Sobol design",
     "warm_start": "an earlier campaign's store (same simulator, cell and parameters) whose finished "
                   "simulations a new store starts with",
+    "fidelities": "a multi-fidelity campaign's presets, cheapest first, the target last: each a preset name or "
+                  "{preset, cost, initial}",
 }
 #: spec fields added after stores existed, with their defaults: left out of the search hash while
 #: they hold them, so that a store made before the field existed still resumes
@@ -92,11 +95,20 @@ class CampaignConfig:
     warm_start: Path | None = None
     #: stop early once the answer has settled for this many successive batches (0: never)
     patience: int = 0
+    #: a multi-fidelity campaign's fidelities, cheapest first, the target last (empty: one fidelity,
+    #: ``spec``); ``spec`` is then the target's
+    fidelities: tuple[Fidelity, ...] = ()
 
     @property
     def target_points(self) -> int:
-        """Points the whole campaign simulates: the enqueued ones, the initial design, the iterations."""
-        return len(self.enqueue) + self.initial + self.iterations * self.q
+        """Points the whole campaign simulates: the enqueued ones, the initial design (at every
+        fidelity), the iterations."""
+        initial = sum(f.initial for f in self.fidelities) if self.fidelities else self.initial
+        return len(self.enqueue) + initial + self.iterations * self.q
+
+    def fidelity(self, name: str) -> Fidelity:
+        """The fidelity called ``name`` (a point stored with an unknown one is a StoreError's business)."""
+        return next(f for f in self.fidelities if f.name == name)
 
     def search_hash(self) -> str:
         """Hash of what defines the search (not budget, executor or paths; the experiment by its
@@ -142,7 +154,7 @@ def search_identity(resolved: dict[str, Any], experiment: Experiment | None) -> 
     proposed them), and the experiment by its data (:func:`~calibrax.core.data.experiment.experiment_fingerprint`)."""
     keep = {k: v for k, v in resolved.items() if k not in ("budget", "executor", "store", "workdir", "description",
                                                            "name", "surrogate", "enqueue", "warm_start", "experiment")}
-    keep = _without_added_defaults(keep)
+    keep = without_added_defaults(keep)
     keep["experiment_data"] = experiment_fingerprint(experiment) if experiment is not None else None
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -252,7 +264,7 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
     return name, options
 
 
-def _without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
+def without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
     """A deep copy of ``resolved`` without the :data:`ADDED_FIELDS` that hold their defaults."""
     out = json.loads(json.dumps(resolved))
     for path, default in ADDED_FIELDS.items():
@@ -262,53 +274,6 @@ def _without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
             node = node.get(key, {}) if isinstance(node, dict) else {}
         if isinstance(node, dict) and last in node and node[last] == json.loads(json.dumps(default)):
             del node[last]
-    return out
-
-
-def _comparable_cell(cell: dict[str, Any], names: tuple[str, ...]) -> dict[str, Any]:
-    """A resolved cell without what differs between the points of one campaign: the calibrated
-    material values and the seed."""
-    cell = _without_added_defaults({"cell": cell})["cell"]
-    for name in names:
-        cell.get("material", {}).pop(name, None)
-    cell.get("numerics", {}).pop("seed", None)
-    return cell
-
-
-def check_warm_start(path: Path, resolved: dict[str, Any], space: ParameterSpace) -> None:
-    """``warm_start`` must be a calibrax store made with the same simulator, cell (calibrated values
-    and seed aside) and calibrated parameters; ConfigError naming what differs otherwise."""
-    from calibrax.core.running.store import CampaignStore
-    from calibrax.errors import StoreError
-
-    if not path.is_file():
-        raise ConfigError("warm_start", f"{path} is not a file; give an earlier campaign's store")
-    try:
-        earlier = CampaignStore(path).config()
-    except (StoreError, KeyError, ValueError) as exc:
-        raise ConfigError("warm_start", f"{path} is not a calibrax store ({exc})") from None
-    if earlier.get("simulator") != resolved["simulator"]:
-        raise ConfigError("warm_start", f"{path} was run on {earlier.get('simulator')!r}, this campaign on "
-                          f"{resolved['simulator']!r}: their results are not the same experiment's")
-    if sorted(earlier.get("parameters", {})) != sorted(space.names):
-        raise ConfigError("warm_start", f"{path} calibrated {sorted(earlier.get('parameters', {}))}, this campaign "
-                          f"{sorted(space.names)}; warm-start needs the same parameters")
-    mine = _flat(_comparable_cell(resolved["cell"], space.names))
-    theirs = _flat(_comparable_cell(earlier.get("cell", {}), space.names))
-    diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
-    if diff:
-        raise ConfigError("warm_start", f"{path} simulated a different cell (cell.{', cell.'.join(diff[:4])} "
-                          "differ); warm-start needs the same cell")
-
-
-def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """{"a": {"b": 1}} → {"a.b": 1}."""
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flat(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
     return out
 
 
@@ -411,7 +376,10 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         experiment = load_experiment(exp_path)
     except ConfigError as exc:
         raise ConfigError("experiment", str(exc)) from None
-    spec = build_spec(raw.get("cell"), raw.get("material"))
+    budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations", "patience"})
+    initial = _integer("budget.initial", budget.get("initial", 4), 2)
+    fidelities = campaign_fidelities(raw, initial, build_spec)
+    spec = fidelities[-1].spec if fidelities else build_spec(raw.get("cell"), raw.get("material"))
     _check_same_preshear(experiment, exp_path, spec)
     space = ParameterSpace.from_config(raw["parameters"])
     metric, metric_options = _named("metric", raw.get("metric"), "metric", default="c_aif")
@@ -426,9 +394,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
                 raise ConfigError("acquisition.batching", f"must be 'sync' (the paper's: a whole batch, then the "
                                   f"next) or 'async' (a new point as soon as a worker frees up), got {batching!r}")
         acq_raw = {k: v for k, v in acq_raw.items() if k not in ("q", "batching")}
-    acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="qei")
-    budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations", "patience"})
-    initial = _integer("budget.initial", budget.get("initial", 4), 2)
+    acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="mfei" if fidelities else "qei")
     iterations = _integer("budget.iterations", budget.get("iterations", 8), 0)
     patience = _integer("budget.patience", budget.get("patience", 0), 0)
     executor, exec_options = _named("executor", raw.get("executor"), "executor", default="local")
@@ -451,6 +417,12 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         surrogate[key] = value
     enqueue = _enqueued(raw.get("enqueue", []), space)
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
+    if fidelities:
+        check_multi_fidelity(raw, acquisition, warm_start)
+        surrogate["model"] = "distance"  # one model of the distance over (x, fidelity)
+    elif is_multi_fidelity(acquisition):
+        raise ConfigError("acquisition", f"{acquisition!r} chooses among fidelities; name them under fidelities "
+                          "(e.g. [tiny, quick]), or use a one-fidelity acquisition such as qei")
     # Build the plugins once so their own option checks run now, not mid-campaign.
     from calibrax.core.search.metric import TermsMetric
     from calibrax.core.registry import get_manager
@@ -484,9 +456,13 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         "seed": seed, "seeds_per_point": seeds_per_point, "surrogate": surrogate,
         **({"enqueue": [list(row) for row in enqueue]} if enqueue else {}),
         **({"warm_start": str(warm_start)} if warm_start else {}),
+        **({"fidelities": [f.to_dict() for f in fidelities]} if fidelities else {}),
     }
     if warm_start is not None:
+        from calibrax.core.warm_start import check_warm_start
+
         check_warm_start(warm_start, resolved, space)
     return CampaignConfig(name, source or base, simulator, experiment, spec, space, metric, metric_options,
                           acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
-                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start, patience)
+                          workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start, patience,
+                          fidelities)

@@ -208,7 +208,9 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
         return [], "too few finished points to fit a surrogate"
     options = {**SURROGATE_DEFAULTS, **(data.config.get("surrogate") or {})}
     seed = int(data.config.get("seed", 0))
-    model = fit_distance_model([p.record for p in data.points], options, seed)
+    fidelities = data.config.get("fidelities")  # a multi-fidelity campaign's: the maps are the target's
+    levels = {f["preset"]: float(f["level"]) for f in fidelities} if fidelities else None
+    model = fit_distance_model([p.record for p in data.points], options, seed, levels=levels)
     limit, rate = data.noise_threshold
     answer = answer_from_model(model, data.space, limit, rate, len(done))
     rec_unit = data.space.to_unit(np.asarray([list(answer.params.values())]))[0]

@@ -81,7 +81,8 @@ def status_text(store: CampaignStore) -> str:
         dist = f"{p.metric.value:.3g} ± {p.metric.uncertainty:.2g}" if p.metric else ""
         walls = [s.wall_time for s in p.sims if math.isfinite(s.wall_time)]
         mark = " *" if p.id == summary.best_id else ""
-        lines.append(f"{p.id:>3} {p.batch:>5} {p.acquisition[:16]:<16} "
+        source = f"{p.acquisition[:9]}@{p.fidelity}" if p.fidelity else p.acquisition  # "mfei@tiny"
+        lines.append(f"{p.id:>3} {p.batch:>5} {source[:16]:<16} "
                      + " ".join(f"{v:>{w}.4g}" for v, w in zip(p.natural, widths))
                      + f" {states[p.id]:<11} "
                      + " ".join(f"{_fmt(f.get(key, math.nan), fmt):>{max(9, len(lab))}}"
@@ -95,6 +96,7 @@ def status_text(store: CampaignStore) -> str:
               for k in ("done", "no metric", "failed", "running", "in flight", "queued", "interrupted")}
     text = ", ".join(f"{n} {k}" for k, n in counts.items() if n or k in ("done", "failed"))
     lines.append(f"\n{len(points)} points: {text}" + ("; the campaign is running" if live else ""))
+    lines.extend(fidelity_lines(store, points))
     if counts["interrupted"]:
         lines.append("interrupted simulations run again when the campaign is run again (calibrax run CAMPAIGN.yaml)")
     if summary.answer is not None:
@@ -107,6 +109,21 @@ def status_text(store: CampaignStore) -> str:
                      f"distance {summary.best_value:.3g} ± {summary.best_uncertainty:.2g}, {summary.noise_text()}")
     lines.extend(experiment_lines(points))
     return "\n".join(lines)
+
+
+def fidelity_lines(store: CampaignStore, points: list[PointRecord]) -> list[str]:
+    """A multi-fidelity campaign's points and CPU-seconds per fidelity, and which one the answer
+    speaks of ([] for one fidelity)."""
+    fidelities = store.config().get("fidelities")
+    if not fidelities:
+        return []
+    parts = []
+    for f in fidelities:
+        mine = [p for p in points if p.fidelity == f["preset"]]
+        cpu = sum(s.wall_time for p in mine for s in p.sims if math.isfinite(s.wall_time))
+        parts.append(f"{f['preset']} {len(mine)} points, {cpu:.3g} CPU-s")
+    return [f"fidelities (cheapest first; the answer and the best observed point are {fidelities[-1]['preset']}'s): "
+            + "; ".join(parts)]
 
 
 def experiment_lines(points: list[PointRecord]) -> list[str]:

@@ -1,7 +1,7 @@
 """A campaign's trials as a flat table: one row per parameter point (``calibrax export``, or
 ``calibrax.trial_rows`` from Python), as Ax's and Optuna's trial data frames.
 
-Columns: ``id, batch, source, state``; each parameter with its unit (``youngs_modulus_Pa``,
+Columns: ``id, batch, source`` (and ``fidelity``, in a multi-fidelity campaign), ``state``; each parameter with its unit (``youngs_modulus_Pa``,
 ``sliding_friction``); ``distance, distance_sd, noise_threshold, within_noise``; the simulated and
 the experiment's ``C_Pa, AIF_deg``; ``simulations, seeds`` (``;``-separated), ``wall_s`` (the
 engines' time, summed over the point's simulations), ``peak_tau_<σ>kPa_Pa`` (mean over the point's
@@ -51,6 +51,7 @@ def trial_rows(store: CampaignStore | str | Path) -> list[dict[str, Any]]:
         walls = [s.wall_time for s in p.sims if math.isfinite(s.wall_time)]
         peaks = peaks_of[p.id]
         row: dict[str, Any] = {"id": p.id, "batch": p.batch, "source": p.acquisition,
+                               **({"fidelity": p.fidelity} if p.fidelity else {}),
                                "state": point_state(workdir, p, live), "best": p.id == best}
         row.update({_column(n): float(v) for n, v in zip(p.names, p.natural)})
         row.update({

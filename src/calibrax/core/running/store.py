@@ -2,7 +2,8 @@
 
 Layout (``/`` attrs: format, calibrax version, created, search hash, resolved config as JSON)::
 
-    /points/p000007                 attrs: batch, unit (d,), natural (d,), names, seeds (k,), proposed_at
+    /points/p000007                 attrs: batch, unit (d,), natural (d,), names, seeds (k,), proposed_at,
+                                           fidelity (a multi-fidelity campaign's preset)
     /points/p000007/sim0            attrs: status (done|failed), seed, wall_time, provenance, reason, log_tail
     /points/p000007/sim0/peaks      datasets: peak_shear_stress (k,), peak_normal_stress (k,), …
     /points/p000007/sim0/steps/s00  datasets: time, rotation, shear_stress, normal_stress, bed_height (n,)
@@ -76,6 +77,8 @@ class PointRecord:
     acquisition: str
     sims: list[SimulationRecord]
     metric: MetricValue | None = None
+    #: the fidelity preset it was simulated at, in a multi-fidelity campaign ("": the campaign's cell)
+    fidelity: str = ""
 
     @property
     def status(self) -> str:
@@ -293,8 +296,9 @@ class CampaignStore:
             return json.loads(f.attrs["config"])
 
     def add_batch(self, batch: int, unit: np.ndarray, natural: np.ndarray, names: list[str], seeds: list[list[int]],
-                  acquisition: str, model: dict[str, Any] | None) -> list[int]:
-        """Record proposed points (shape (q, d)) and the model they came from; return their ids."""
+                  acquisition: str, model: dict[str, Any] | None, fidelities: list[str] | None = None) -> list[int]:
+        """Record proposed points (shape (q, d)) and the model they came from; return their ids.
+        ``fidelities``: each point's fidelity preset, in a multi-fidelity campaign."""
 
         def add(f: h5py.File) -> list[int]:
             start = len(f["points"])
@@ -306,6 +310,8 @@ class CampaignStore:
                                 "natural": np.asarray(natural[j], float), "names": json.dumps(names),
                                 "seeds": np.asarray(seeds[j], dtype=np.int64), "acquisition": acquisition,
                                 "proposed_at": time.time()})
+                if fidelities is not None:
+                    g.attrs["fidelity"] = fidelities[j]
                 ids.append(pid)
             if model is not None:
                 m = f["models"].create_group(f"b{batch:04d}")
@@ -365,7 +371,7 @@ class CampaignStore:
                     metric = MetricValue(float(m["value"]), float(m["uncertainty"]), json.loads(m["features"]))
                 out.append(PointRecord(int(key[1:]), int(g.attrs["batch"]), np.asarray(g.attrs["unit"], float),
                                        np.asarray(g.attrs["natural"], float), json.loads(g.attrs["names"]),
-                                       str(g.attrs["acquisition"]), sims, metric))
+                                       str(g.attrs["acquisition"]), sims, metric, str(g.attrs.get("fidelity", ""))))
         return out
 
     def experiment(self) -> Experiment | None:

@@ -17,11 +17,13 @@ from calibrax.core.search.parameters import ParameterSpace
 @dataclass(frozen=True)
 class Observations:
     """What the search knows: unit-cube points ``x`` shape (n, d), distances ``y`` shape (n,)
-    (lower is better) and their 1-σ uncertainties ``y_std`` shape (n,) (NaN where unknown)."""
+    (lower is better) and their 1-σ uncertainties ``y_std`` shape (n,) (NaN where unknown); in a
+    multi-fidelity campaign, each point's fidelity ``level`` shape (n,) (1: the target), else None."""
 
     x: np.ndarray
     y: np.ndarray
     y_std: np.ndarray
+    level: np.ndarray | None = None
 
 
 @runtime_checkable

@@ -27,9 +27,11 @@ def physically_failed(point: PointRecord) -> bool:
                                             for s in point.sims)
 
 
-def observations(points: list[PointRecord], penalise_failures: bool = True) -> Observations:
+def observations(points: list[PointRecord], penalise_failures: bool = True,
+                 levels: dict[str, float] | None = None) -> Observations:
     """Unit-cube points and distances of every point with a metric, plus (with a penalty distance)
-    every point that failed physically."""
+    every point that failed physically; with ``levels`` ({fidelity name: level}, a multi-fidelity
+    campaign's), each point's fidelity level too."""
     d = len(points[0].names) if points else 0
     done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     x = [p.unit for p in done]
@@ -41,9 +43,12 @@ def observations(points: list[PointRecord], penalise_failures: bool = True) -> O
         x += [p.unit for p in failed]
         y += [penalty] * len(failed)
         y_std += [float("nan")] * len(failed)
+    else:
+        failed = []
+    level = None if levels is None else np.asarray([levels[p.fidelity] for p in done + failed], float)
     if not x:
-        return Observations(np.zeros((0, d)), np.zeros(0), np.zeros(0))
-    return Observations(np.stack(x), np.asarray(y, float), np.asarray(y_std, float))
+        return Observations(np.zeros((0, d)), np.zeros(0), np.zeros(0), None if levels is None else np.zeros(0))
+    return Observations(np.stack(x), np.asarray(y, float), np.asarray(y_std, float), level)
 
 
 #: the answer has settled when, between successive batches, the recommendation moves less than this
@@ -105,19 +110,27 @@ def noise_threshold(finished: list[PointRecord]) -> tuple[float, float]:
 
 
 def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], seed: int,
-                       obs: Observations | None = None):
+                       obs: Observations | None = None, levels: dict[str, float] | None = None):
     """A :class:`~calibrax.core.search.surrogate.Kriging` model of the points' distances (penalised
     failures included) with the options ``surrogate`` ({model, transform, noise}); None with < 2
     points. ``model: composite`` (the default) fits :func:`fit_composite_model` instead.
     ``noise: metric`` takes the noise prior from the metric's threshold
     (:func:`~calibrax.core.search.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
-    the points' :func:`observations`, when the caller has them already."""
+    the points' :func:`observations`, when the caller has them already. With ``levels`` ({fidelity
+    name: level}), a multi-fidelity campaign's
+    :class:`~calibrax.core.search.multifidelity.MultiFidelityKriging`, read at the target."""
     from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
 
-    obs = observations(points) if obs is None else obs
+    obs = observations(points, levels=levels) if obs is None else obs
     if len(obs.y) < 2:
         return None
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+    if obs.level is not None:
+        from calibrax.core.search.multifidelity import MultiFidelityKriging
+
+        threshold, _ = noise_threshold(finished)
+        return MultiFidelityKriging.fit(obs.x, obs.level, obs.y, seed, transform=surrogate.get("transform", "log1p"),
+                                        threshold=threshold if surrogate.get("noise", "metric") == "metric" else math.nan)
     if surrogate.get("model", "composite") == "composite":
         model = fit_composite_model(finished, [p for p in points if physically_failed(p)], seed)
         if model is not None:
@@ -142,6 +155,11 @@ def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], 
                                 failed_x=np.stack([p.unit for p in failed]) if failed else None)
 
 
+def fidelity_levels(config: CampaignConfig) -> dict[str, float] | None:
+    """{fidelity name: level} of a multi-fidelity campaign, None for one fidelity."""
+    return {f.name: f.level for f in config.fidelities} if config.fidelities else None
+
+
 def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=None) -> Answer | None:
     """The campaign's :class:`Answer` from ``points``: ``model`` (default: fitted on the points with
     the campaign's surrogate options and seed) read against the metric's noise threshold; None with
@@ -149,10 +167,12 @@ def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=Non
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     if len(finished) < 3:
         return None
-    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed)
+    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed,
+                                                               levels=fidelity_levels(config))
     threshold, rate = noise_threshold(finished)
     return answer_from_model(model, config.space, threshold, rate, len(finished))
 
 
 __all__ = ["DUPLICATE_TOL", "SETTLED_MOVE", "SETTLED_SHARE", "physically_failed", "observations", "settled",
-           "screen_repeats", "noise_threshold", "fit_distance_model", "fit_composite_model", "campaign_answer"]
+           "screen_repeats", "noise_threshold", "fit_distance_model", "fit_composite_model", "fidelity_levels",
+           "campaign_answer"]

@@ -30,6 +30,10 @@ import torch
 
 DTYPE = torch.float64
 TRANSFORMS = ("log1p", "identity")
+#: the multi-fidelity model's kernel: ``ar1`` (Kennedy and O'Hagan's autoregressive co-Kriging,
+#: :mod:`calibrax.core.search.fidelity_kernel`) or ``linear_truncated`` (BoTorch's
+#: ``SingleTaskMultiFidelityGP``); chosen by benchmarks/multifidelity.py
+FIDELITY_KERNEL = "ar1"
 #: evaluations per chunk in :meth:`Kriging.latent` (memory: chunk × training points)
 PREDICT_CHUNK = 4096
 
@@ -64,16 +68,20 @@ class Kriging:
 
     @classmethod
     def fit(cls, x: np.ndarray, distance: np.ndarray, seed: int = 0, *, transform: str = "identity",
-            noise_sd: float | None = None) -> "Kriging":
+            noise_sd: float | None = None, fidelity_column: int | None = None) -> "Kriging":
         """Fit on ``x`` shape (n, d) in [0, 1]^d and ``distance`` shape (n,). Needs n ≥ 2.
 
         Args:
             transform: ``log1p`` (model log(1 + d)) or ``identity``.
             noise_sd: expected 1-σ scatter of one evaluation's distance near the optimum (distance
                 units); None or NaN: the noise is fitted freely (BoTorch's default prior).
+            fidelity_column: the column of ``x`` that holds a fidelity level in [0, 1] (1: the
+                target); the model is then BoTorch's ``SingleTaskMultiFidelityGP`` (a Matérn-5/2
+                kernel over the parameters times a linear truncated fidelity kernel, which lets
+                the cheaper levels carry a bias that vanishes at the target).
         """
         from botorch.fit import fit_gpytorch_mll
-        from botorch.models import SingleTaskGP
+        from botorch.models import SingleTaskGP, SingleTaskMultiFidelityGP
         from botorch.models.transforms.outcome import Standardize
         from gpytorch.constraints import GreaterThan
         from gpytorch.kernels import MaternKernel, ScaleKernel
@@ -104,8 +112,16 @@ class Kriging:
             likelihood = GaussianLikelihood(noise_prior=LogNormalPrior(math.log(var), 1.0),
                                             noise_constraint=GreaterThan(floor))
             likelihood.noise = var
-        model = SingleTaskGP(tx, ty, covar_module=covar, outcome_transform=Standardize(m=1),
-                             **({"likelihood": likelihood} if likelihood is not None else {}))
+        extra = {"likelihood": likelihood} if likelihood is not None else {}
+        if fidelity_column is not None and FIDELITY_KERNEL == "linear_truncated":
+            model = SingleTaskMultiFidelityGP(tx, ty, data_fidelities=[fidelity_column],
+                                              outcome_transform=Standardize(m=1), **extra)
+        else:
+            if fidelity_column is not None:
+                from calibrax.core.search.fidelity_kernel import AutoregressiveFidelityKernel
+
+                covar = AutoregressiveFidelityKernel(d - 1)
+            model = SingleTaskGP(tx, ty, covar_module=covar, outcome_transform=Standardize(m=1), **extra)
         mll = ExactMarginalLogLikelihood(model.likelihood, model)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -159,6 +175,26 @@ class Kriging:
                 sds.append((var.clamp_min(0).sqrt() * y_sd).numpy())
         return np.concatenate(means), np.concatenate(sds)
 
+    def covariance(self, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
+        """Posterior covariance of the transformed distance's mean between ``xa[i]`` and ``xb[i]``,
+        both shape (m, d) → (m,): k(a, b) − k(a, X)(K + σ²I)⁻¹k(X, b), pair by pair."""
+        m = self.model
+        chol, _ = self._solved()
+        x_train = m.train_inputs[0]
+        y_sd = m.outcome_transform.stdvs.reshape(-1)[0]
+        with torch.no_grad():
+            ta = torch.as_tensor(np.atleast_2d(xa), dtype=DTYPE)
+            tb = torch.as_tensor(np.atleast_2d(xb), dtype=DTYPE)
+            va = torch.linalg.solve_triangular(chol, m.covar_module(x_train, ta).to_dense(), upper=False)
+            vb = torch.linalg.solve_triangular(chol, m.covar_module(x_train, tb).to_dense(), upper=False)
+            cov = m.covar_module(ta, tb, diag=True) - (va * vb).sum(0)
+        return (cov * y_sd**2).numpy()
+
+    def noise_sd(self) -> float:
+        """The fitted noise s.d. of one evaluation, in the transformed distance's units."""
+        m = self.model
+        return float(m.likelihood.noise.detach().reshape(-1)[0].sqrt() * m.outcome_transform.stdvs.reshape(-1)[0])
+
     def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Predicted distance and its standard deviation at ``x`` shape (m, d) → two arrays (m,).
         Through ``log1p`` the distance is the back-transformed mean (the median of a log-normal
@@ -182,12 +218,26 @@ class Kriging:
     def hyperparameters(self) -> dict[str, object]:
         """Length scales (unit-cube units), output scale, noise (standardised units), for the store."""
         m = self.model
-        ls = m.covar_module.base_kernel.lengthscale.detach().reshape(-1).tolist()
+        base = getattr(m.covar_module, "base_kernel", None)
+        if base is None:  # the autoregressive fidelity kernel
+            ls = m.covar_module.target_lengthscales()
+            extra = m.covar_module.describe()
+        elif hasattr(base, "kernels"):  # the multi-fidelity model: the unbiased part's length scales
+            fidelity = base.kernels[0]
+            ls = fidelity.covar_module_unbiased.lengthscale.detach().reshape(-1).tolist()
+            extra = {"kernel": "matern52_ard_x_linear_truncated_fidelity",
+                     "bias_lengthscales": [float(v) for v in
+                                           fidelity.covar_module_biased.lengthscale.detach().reshape(-1).tolist()],
+                     "fidelity_power": float(fidelity.power.detach().reshape(-1)[0])}
+        else:
+            ls = base.lengthscale.detach().reshape(-1).tolist()
+            extra = {"kernel": "matern52_ard"}
         out = {
-            "kernel": "matern52_ard",
+            **extra,
             "transform": self.transform,
             "lengthscales": [float(v) for v in ls],
-            "outputscale": float(m.covar_module.outputscale.detach()),
+            "outputscale": float((m.covar_module.outputscale if hasattr(m.covar_module, "outputscale")
+                                  else m.covar_module.cheap.outputscale).detach()),
             "noise": float(m.likelihood.noise.detach().reshape(-1)[0]),
             "noise_floor": float(self.noise_floor),
             "n_train": int(self.train_x.shape[0]),

@@ -39,18 +39,22 @@ from typing import Any, Callable
 
 import numpy as np
 
+from calibrax.core.fidelities import nearest, target_fidelity
 from calibrax.core.search.answer import Answer
 from calibrax.core.config import CampaignConfig
 from calibrax.core.running.executor import SimulationTask
 from calibrax.core.search.metric import describe_simulated
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.search.design import sobol_points
 from calibrax.core.registry import get_manager
 from calibrax.core.running.scheduler import Finished, Scheduler
 from calibrax.core.search.summary import CampaignSummary, noise_text
-from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fit_distance_model,
-                                 observations, screen_repeats, settled)
+from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fidelity_levels,
+                                 fit_distance_model, observations, screen_repeats, settled)
 from calibrax.core.running.store import CampaignStore, PointRecord
+from calibrax.core.studies.simulation_setup import (EXPERIMENT_SEED_BASE, point_spec, simulation_seed,  # noqa: F401
+                                                     simulation_workdir)
+from calibrax.core.warm_start import WARM_START, take_warm_start
 from calibrax.errors import CalibraxError
 
 log = logging.getLogger("calibrax")
@@ -69,29 +73,6 @@ class _InFlight:
     @property
     def key(self) -> tuple[int, int]:
         return self.point.id, self.index
-
-
-#: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
-#: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
-EXPERIMENT_SEED_BASE = 2**30
-#: the source of the points a campaign was warm-started with
-WARM_START = "warm_start"
-
-
-def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
-    """The seed of simulation ``index`` of point ``point_id``: distinct, reproducible, and below
-    :data:`EXPERIMENT_SEED_BASE`, so never the seed of a pseudo-experiment's replicate."""
-    return (campaign_seed * 1_000_003 + point_id * 1_000 + index) % EXPERIMENT_SEED_BASE
-
-
-def simulation_workdir(workdir: Path, point_id: int, index: int) -> Path:
-    """The work folder of simulation ``index`` of point ``point_id`` under the campaign's ``workdir``."""
-    return Path(workdir) / f"p{point_id:06d}-s{index}"
-
-
-def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> ShearCellSpec:
-    """The spec of one simulation: calibrated material values and the seed set on the base spec."""
-    return base.replace(material=dict(params), numerics={"seed": int(seed)})
 
 
 def _fmt_params(params: dict[str, float]) -> str:
@@ -133,6 +114,8 @@ class Campaign:
         self._model = None  # the last Kriging model fitted for a proposal
         self._answers: list[Answer] = []  # this run's answers, one per model batch
         self._stopped = False  # the answer settled (budget.patience): no more proposals
+        #: CPU-seconds (engine wall time) and simulations finished so far, per fidelity ("" for one)
+        self._cpu: dict[str, list[float]] = {}
 
     # ------------------------------------------------------------------------------------------
     def run(self) -> CampaignSummary:
@@ -149,6 +132,10 @@ class Campaign:
             self._sims_total = max(target, len(points)) * cfg.seeds_per_point
             stored = sum(1 for p in points for s in p.sims if s.status != "pending")
             self._sims_started = self._sims_finished = stored
+            for p in points:
+                for s in p.sims:
+                    if s.status != "pending" and math.isfinite(s.wall_time):
+                        self._count_cpu(p.fidelity, s.wall_time)
             complete = len(points) >= target and stored == len(points) * cfg.seeds_per_point
             if created:
                 state = "new campaign"
@@ -171,10 +158,7 @@ class Campaign:
                 for p in store.points():
                     self._submit(p)
                 if not [p for p in store.points() if p.acquisition != WARM_START]:
-                    design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
-                    enq = self._unqueued(store.points())
-                    source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
-                    self._add_batch(store, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
+                    self._initial_design(store)
                 self._loop(store)
             except BaseException:
                 self._scheduler.shutdown(cancel=True)
@@ -197,7 +181,8 @@ class Campaign:
                 batch = max(p.batch for p in points) + 1
                 enq = self._unqueued(points)
                 if len(enq) and (cfg.batching == "async" or not running):
-                    self._add_batch(store, batch, enq, "enqueued", None)
+                    self._add_batch(store, batch, enq, "enqueued", None,
+                                    [cfg.fidelities[-1].name] * len(enq) if cfg.fidelities else None)
                     continue
                 if cfg.batching == "sync" and not running:
                     self._propose_and_submit(store, points, batch, min(cfg.q, target - len(points)))
@@ -216,39 +201,29 @@ class Campaign:
                 last_beat = time.monotonic()
                 self._heartbeat()
 
+    def _initial_design(self, store: CampaignStore) -> None:
+        """Batch 0: the enqueued points (at the target fidelity), then a scrambled Sobol design;
+        in a multi-fidelity campaign each fidelity runs the first ``initial`` points of one Sobol
+        sequence (nested levels: every target point has its cheap twins)."""
+        cfg = self.config
+        enq = self._unqueued(store.points())
+        source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
+        if not cfg.fidelities:
+            design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
+            self._add_batch(store, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
+            return
+        design = sobol_points(cfg.space.dim, max(f.initial for f in cfg.fidelities), seed=cfg.seed)
+        rows = [enq] + [design[:f.initial] for f in cfg.fidelities]
+        names = [cfg.fidelities[-1].name] * len(enq) + [f.name for f in cfg.fidelities for _ in range(f.initial)]
+        self._add_batch(store, 0, np.vstack(rows), source, None, names)
+
     def _target(self, points: list[PointRecord]) -> int:
         """Points the campaign simulates: the config's, plus those it was warm-started with."""
         return self.config.target_points + sum(1 for p in points if p.acquisition == WARM_START)
 
     def _warm_start(self, store: CampaignStore, path: Path) -> None:
-        """Start a new store with every finished simulation of an earlier one (same simulator, cell
-        and parameters, checked when the config was read) whose point lies in this box, as batch 0,
-        scored with this campaign's metric and experiment; nothing is re-simulated."""
-        cfg = self.config
-        earlier = CampaignStore(path)
-        taken, outside = 0, 0
-        for p in earlier.points():
-            done = [s for s in p.sims if s.status == "done"]
-            if not done:
-                continue
-            params = p.params()
-            natural = np.asarray([[params[n] for n in cfg.space.names]])
-            if not all(q.low <= v <= q.high for q, v in zip(cfg.space.parameters, natural[0])):
-                outside += 1
-                continue
-            (pid,) = store.add_batch(0, cfg.space.to_unit(natural), natural, list(cfg.space.names),
-                                     [[s.seed for s in done]], WARM_START, None)
-            results = [earlier.result(p.id, s.index) for s in done]
-            metric, error = None, ""
-            try:
-                metric = self.metric.evaluate(results, cfg.experiment)
-            except CalibraxError as exc:
-                error = str(exc)
-            for k, (s, result) in enumerate(zip(done, results)):
-                last = k == len(done) - 1
-                store.add_simulation(pid, k, s.seed, result, wall_time=s.wall_time, metric=metric if last else None,
-                                     metric_error=error if last else "")
-            taken += 1
+        """Start a new store with an earlier one's finished simulations (:func:`take_warm_start`)."""
+        taken, outside = take_warm_start(store, self.config, self.metric, path)
         self._emit("warm_start", f"warm start from {path}: {taken} finished point(s) taken"
                    + (f", {outside} outside this box left out" if outside else ""), points=taken, outside=outside)
 
@@ -289,9 +264,10 @@ class Campaign:
         self._sims_started += 1
         p, cfg = job.point, self.config
         self._emit("started", f"simulation {self._sims_started} of {self._sims_total}: point {p.id} sim {job.index}: "
-                   f"{cfg.simulator} starts (seed {job.seed}, {_fmt_params(p.params())}) in {job.workdir}",
+                   f"{cfg.simulator} starts{_at(p)} (seed {job.seed}, {_fmt_params(p.params())}) in {job.workdir}",
                    point=p.id, sim=job.index, seed=job.seed, simulator=cfg.simulator, params=p.params(),
-                   workdir=str(job.workdir), number=self._sims_started, of=self._sims_total)
+                   workdir=str(job.workdir), number=self._sims_started, of=self._sims_total,
+                   **({"fidelity": p.fidelity} if p.fidelity else {}))
 
     def _heartbeat(self) -> None:
         """"running: point 3 sim 0 (40 s); queued: point 4 sim 0 | 2 of 6 simulations done, … | best …"."""
@@ -311,16 +287,27 @@ class Campaign:
         run's finished simulations × those left ÷ workers)."""
         text = f"{self._sims_finished} of {self._sims_total} simulations done"
         left = self._sims_total - self._sims_finished
+        if self.config.fidelities:  # which fidelity the rest runs at is the search's choice: no time left
+            spent = [(name, *self._cpu[name]) for name in (f.name for f in self.config.fidelities) if name in self._cpu]
+            return text + "; CPU " + ", ".join(f"{name} {_fmt_duration(t)} ({n:.0f} sims)" for name, t, n in spent)
         if left > 0 and self._engine_walls:
             eta = float(np.median(self._engine_walls)) * math.ceil(left / self._capacity)
             text += f", about {_fmt_duration(eta)} left"
         return text
 
+    def _count_cpu(self, fidelity: str, seconds: float) -> None:
+        spent = self._cpu.setdefault(fidelity, [0.0, 0.0])
+        spent[0] += seconds
+        spent[1] += 1
+
     @staticmethod
     def summary(store: CampaignStore) -> CampaignSummary:
-        """The campaign's state as stored: counts, the best observed point so far and the answer."""
+        """The campaign's state as stored: counts, the best observed point so far (in a multi-
+        fidelity campaign, at the target fidelity) and the answer."""
         points = store.points()
-        done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
+        target = target_fidelity(store)
+        done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)
+                and p.fidelity == target]
         failed = sum(1 for p in points if p.status == "failed")
         best = min(done, key=lambda p: p.metric.value, default=None)
         if best is None:
@@ -332,41 +319,55 @@ class Campaign:
     # ------------------------------------------------------------------------------------------
     def _propose_and_submit(self, store: CampaignStore, points: list[PointRecord], batch: int, q: int,
                             pending: list[PointRecord] | None = None) -> None:
-        unit, source, model = self._propose(points, batch, q, pending or [])
+        unit, source, model, fidelities = self._propose(points, batch, q, pending or [])
         unit = self._without_repeats(unit, points, batch)
-        self._add_batch(store, batch, unit, source, model)
+        self._add_batch(store, batch, unit, source, model, fidelities)
         if self._model is not None:
             self._answer(store, points, self._model)
             self._check_settled()
 
     def _propose(self, points: list[PointRecord], batch: int, q: int,
-                 pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None]:
+                 pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None, list[str] | None]:
+        """``q`` points (unit cube, (q, d)), what proposed them, the model's hyperparameters and,
+        in a multi-fidelity campaign, the fidelity each runs at (else None)."""
         cfg = self.config
-        obs = observations(points)
+        levels = fidelity_levels(cfg)
+        obs = observations(points, levels=levels)
         seed = cfg.seed * 7919 + batch
         x_pending = np.stack([p.unit for p in pending]) if pending else None
+        if x_pending is not None and levels is not None:
+            x_pending = np.hstack([x_pending, [[levels[p.fidelity]] for p in pending]])
         self._model = None
+        cheapest = [cfg.fidelities[0].name] * q if cfg.fidelities else None
         if not self.acquisition.needs_model:
             unit = self.acquisition.propose(None, cfg.space, obs, q, pending=x_pending, seed=seed)
-            return unit, cfg.acquisition, None
+            return unit, cfg.acquisition, None, cheapest
         finished = sum(1 for p in points if p.metric is not None)
         if finished < 2:
             self._emit("fallback", f"batch {batch}: only {finished} finished point(s), too few for a model; "
                        "proposing space-filling points", level=logging.WARNING, batch=batch)
-            return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None
+            return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None, cheapest
         t0 = time.monotonic()
-        model = self._model = fit_distance_model(points, cfg.surrogate, seed, obs)
-        unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
+        model = self._model = fit_distance_model(points, cfg.surrogate, seed, obs, levels)
+        fidelities = None
+        if cfg.fidelities:
+            rows = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed,
+                                            fidelities=[(f.level, f.cost) for f in cfg.fidelities])
+            unit, fidelities = rows[:, :-1], [nearest(cfg.fidelities, lv).name for lv in rows[:, -1]]
+        else:
+            unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
         hyper = model.hyperparameters()
         n_pen = len(obs.y) - finished
         hyper.update({"penalised_failures": n_pen, "pending": 0 if x_pending is None else len(x_pending)})
-        kind = "composite Kriging (one GP per distance term)" if hyper.get("kernel", "").startswith("composite") else "Kriging"
+        kind = ("composite Kriging (one GP per distance term)" if hyper.get("kernel", "").startswith("composite")
+                else "multi-fidelity Kriging" if cfg.fidelities else "Kriging")
         self._emit("model", f"batch {batch}: {kind} on {len(obs.y)} points ({n_pen} failed, penalised; length scales "
                    f"{', '.join(f'{v:.3g}' for v in hyper['lengthscales'])}, noise {hyper['noise'] or 0.0:.3g}) → "
                    f"{cfg.acquisition} proposes {q} point(s)"
-                   f"{f' beside {len(x_pending)} pending' if x_pending is not None else ''} "
+                   f"{f' beside {len(x_pending)} pending' if x_pending is not None else ''}"
+                   f"{' at ' + ', '.join(fidelities) if fidelities else ''} "
                    f"in {time.monotonic() - t0:.1f} s", batch=batch, hyperparameters=hyper)
-        return unit, cfg.acquisition, hyper
+        return unit, cfg.acquisition, hyper, fidelities
 
     def _without_repeats(self, unit: np.ndarray, points: list[PointRecord], batch: int) -> np.ndarray:
         """Screen the proposals for repeats (:func:`screen_repeats`) and log each decision."""
@@ -382,17 +383,18 @@ class Campaign:
         return rows
 
     def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str,
-                   model: dict | None) -> None:
+                   model: dict | None, fidelities: list[str] | None = None) -> None:
+        """Store proposed points (and, in a multi-fidelity campaign, their ``fidelities``) and submit them."""
         cfg = self.config
         natural = cfg.space.from_unit(unit)
         first = len(store.points())
         seeds = [[simulation_seed(cfg.seed, first + j, i) for i in range(cfg.seeds_per_point)] for j in range(len(unit))]
-        ids = store.add_batch(batch, unit, natural, list(cfg.space.names), seeds, source, model)
+        ids = store.add_batch(batch, unit, natural, list(cfg.space.names), seeds, source, model, fidelities)
         points = {p.id: p for p in store.points()}
         for pid, row in zip(ids, natural):
-            self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}: "
+            self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}{_at(points[pid])}: "
                        f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=source,
-                       params=cfg.space.as_dict(row))
+                       params=cfg.space.as_dict(row), **({"fidelity": points[pid].fidelity} if fidelities else {}))
             self._submit(points[pid])
 
     def _submit(self, p: PointRecord) -> None:
@@ -407,8 +409,9 @@ class Campaign:
                 self._outcomes[p.id][s.index] = CampaignStore(cfg.store).result(p.id, s.index)
             elif s.status == "failed":
                 self._outcomes[p.id][s.index] = None
+        base = cfg.fidelity(p.fidelity).spec if p.fidelity else cfg.spec
         for s in pending:
-            task = SimulationTask(p.id, cfg.simulator, point_spec(cfg.spec, p.params(), s.seed),
+            task = SimulationTask(p.id, cfg.simulator, point_spec(base, p.params(), s.seed),
                                   simulation_workdir(cfg.workdir, p.id, s.index))
             self._emit("queued", f"point {p.id} sim {s.index}: queued for {cfg.simulator} (seed {s.seed})",
                        level=logging.DEBUG, point=p.id, sim=s.index, seed=s.seed)
@@ -423,6 +426,8 @@ class Campaign:
         result, failure, wall = done.result, done.failure, done.wall_time
         if result is not None:
             self._engine_walls.append(wall)
+        if math.isfinite(wall):
+            self._count_cpu(point.fidelity, wall)
         self._sims_finished += 1
         outcomes = self._outcomes[point.id]
         outcomes[index] = result
@@ -434,7 +439,7 @@ class Campaign:
             except CalibraxError as exc:
                 error = str(exc)
         if failure is not None:
-            self._emit("failed", f"point {point.id} sim {index} ({cfg.simulator}, seed {seed}) FAILED after "
+            self._emit("failed", f"point {point.id} sim {index} ({cfg.simulator}{_at(point)}, seed {seed}) FAILED after "
                        f"{wall:.1f} s [{failure.kind}]: {failure.reason}", level=logging.WARNING, point=point.id,
                        sim=index, seed=seed, kind=failure.kind, reason=failure.reason, wall_s=wall)
             store.add_simulation(point.id, index, seed, None, reason=failure.reason, log_tail=failure.log_tail,
@@ -444,13 +449,14 @@ class Campaign:
         for w in result.warnings:
             self._emit("warning", f"point {point.id} sim {index}: {w}", level=logging.WARNING, point=point.id)
         peaks = ", ".join(f"{t:.0f}" for t in result.peak_shear_stress)
-        msg = f"point {point.id} sim {index} done in {wall:.1f} s ({cfg.simulator}, seed {seed}): τ_peak = [{peaks}] Pa"
+        msg = (f"point {point.id} sim {index} done in {wall:.1f} s ({cfg.simulator}{_at(point)}, seed {seed}): "
+               f"τ_peak = [{peaks}] Pa")
         if metric is not None:
             f = metric.features
             shown = describe_simulated(f)
             msg += (f", {shown}," if shown else ",") + f" d = {metric.value:.3g} ± {metric.uncertainty:.2g}"
             msg += f" ({noise_text(metric.value, metric.threshold, metric.threshold_rate).split(' (')[0]})"
-            if self._best is None or metric.value < self._best[0]:
+            if (self._best is None or metric.value < self._best[0]) and self._is_target(point):
                 self._best = (metric.value, point.id, point.params())
                 self._best_noise = (metric.threshold, metric.threshold_rate)
         elif error:
@@ -460,6 +466,10 @@ class Campaign:
                    distance=None if metric is None else metric.value,
                    best_point=None if self._best is None else self._best[1],
                    best_distance=None if self._best is None else self._best[0])
+
+    def _is_target(self, point: PointRecord) -> bool:
+        """Whether the point ran at the campaign's target fidelity (always, with one fidelity)."""
+        return not self.config.fidelities or point.fidelity == self.config.fidelities[-1].name
 
     def _emit(self, event: str, message: str, level: int = logging.INFO, **data: Any) -> None:
         log.log(level, "%s", message)
@@ -471,6 +481,11 @@ class Campaign:
             return "no best point yet"
         v, pid, params = self._best
         return f"best d = {v:.3g} at point {pid} ({_fmt_params(params)}), {noise_text(v, *self._best_noise)}"
+
+
+def _at(point: PointRecord) -> str:
+    """" at tiny" for a point of a multi-fidelity campaign, "" otherwise."""
+    return f" at {point.fidelity}" if point.fidelity else ""
 
 
 def load_answer(store: CampaignStore) -> Answer | None:

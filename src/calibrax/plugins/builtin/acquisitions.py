@@ -1,5 +1,5 @@
 """Builtin acquisitions: ``qei`` (the paper's q-point EI), ``qlogei``, ``qnei``, ``qlognei`` and
-``sobol``.
+``sobol``; the multi-fidelity ``mfei`` and ``mfkg`` live in :mod:`calibrax.plugins.builtin.multifidelity`.
 
 All work in the unit cube on the :class:`~calibrax.core.search.surrogate.Kriging` model of −distance,
 through BoTorch's Monte-Carlo acquisition functions and ``optimize_acqf``. ``qei`` and ``qlogei``
@@ -167,5 +167,7 @@ class RandomAcquisition:
 
 @hookimpl
 def calibrax_acquisitions() -> list[type]:
+    from calibrax.plugins.builtin.multifidelity import AugmentedExpectedImprovement, MultiFidelityKnowledgeGradient
+
     return [QExpectedImprovement, QLogExpectedImprovement, QNoisyExpectedImprovement, QLogNoisyExpectedImprovement,
-            SobolAcquisition, RandomAcquisition]
+            SobolAcquisition, RandomAcquisition, AugmentedExpectedImprovement, MultiFidelityKnowledgeGradient]
