@@ -247,11 +247,14 @@ def _print_check(config) -> None:
     from calibrax.core.running.store import CampaignStore
 
     exists = CampaignStore(config.store).check(config.search_hash(), config.store_mismatch)
-    spec = config.spec
     print(yaml.safe_dump(config.resolved, sort_keys=False, allow_unicode=True), end="")
-    print(f"# cell: {spec.particle_count} particles, {spec.particles_per_diameter:.1f} per diameter, "
-          f"Δt = {spec.time_step:.3g} s ({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
-          f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
+    cells = [(f"{f.name} ({f.cost:g} CPU-s per simulation{', the target' if f is config.fidelities[-1] else ''})",
+              f.spec) for f in config.fidelities] or [("", config.spec)]
+    for name, spec in cells:
+        print(f"# cell{' ' + name if name else ''}: {spec.particle_count} particles, "
+              f"{spec.particles_per_diameter:.1f} per diameter, Δt = {spec.time_step:.3g} s "
+              f"({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
+              f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
     exp = config.experiment
     locus = exp.locus()
     print(f"# experiment {exp.name}: {len(exp.normal_stress)} points, {len(exp.replicates)} replicate(s), "

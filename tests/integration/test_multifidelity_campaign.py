@@ -35,7 +35,9 @@ def test_two_fidelity_campaign_recovers_its_truth_at_the_upper_fidelity(tmp_path
         assert (points[8 + k].unit == points[k].unit).all()
     assert all(p.acquisition == "mfei" and p.fidelity in ("tiny", "quick") for p in points if p.batch > 0)
     models = CampaignStore(config.store).models()
-    assert all(m["kernel"] == "matern52_ard_ar1_fidelity" for m in models.values())
+    # the default model: one AR(1) co-Kriging GP per feature (C, AIF), the distance from them
+    assert all(m["kernel"] == "composite_matern52_ard_ar1_fidelity" and set(m["features"]) == {"cohesion", "aif"}
+               for m in models.values())
     # the answer at quick: near the truth, which the plausible region holds; tiny's own optimum
     # (μs about 0.08 lower) is not what it names
     rec = summary.answer["params"]

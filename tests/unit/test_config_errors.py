@@ -50,9 +50,9 @@ CASES = [
     (lambda c: c.update(fidelities=["tiny", "quick"], cell={}), "acquisition: 'qei' proposes at one fidelity; with fidelities use"),
     (lambda c: c.update(fidelities=["tiny", "quick"], acquisition="mfei", cell={"preset": "paper"}),
      "cell.preset: is 'paper', but the campaign's target fidelity (the last of fidelities) is 'quick'"),
-    (lambda c: c.update(fidelities=["tiny", "quick"], acquisition="mfei", cell={"preset": "quick"},
+    (lambda c: c.update(fidelities=["tiny", "quick"], acquisition="mfkg", cell={"preset": "quick"},
                         surrogate={"model": "composite"}),
-     "surrogate.model: composite is a one-fidelity model"),
+     "surrogate.model: mfkg (BoTorch's knowledge gradient) needs one model of the distance"),
     (lambda c: c.update(acquisition="mfei"), "acquisition: 'mfei' chooses among fidelities; name them under fidelities"),
 ]
 

@@ -419,7 +419,8 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
     if fidelities:
         check_multi_fidelity(raw, acquisition, warm_start)
-        surrogate["model"] = "distance"  # one model of the distance over (x, fidelity)
+        if acquisition == "mfkg":  # BoTorch's knowledge gradient needs one GP of the distance over (x, fidelity)
+            surrogate["model"] = "distance"
     elif is_multi_fidelity(acquisition):
         raise ConfigError("acquisition", f"{acquisition!r} chooses among fidelities; name them under fidelities "
                           "(e.g. [tiny, quick]), or use a one-fidelity acquisition such as qei")

@@ -148,9 +148,9 @@ def check_multi_fidelity(raw: dict[str, Any], acquisition: str, warm_start: Any)
     if not is_multi_fidelity(acquisition):
         raise ConfigError("acquisition", f"{acquisition!r} proposes at one fidelity; with fidelities use a "
                           "multi-fidelity acquisition: mfei (the default) or mfkg")
-    if isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite":
-        raise ConfigError("surrogate.model", "composite is a one-fidelity model; with fidelities the campaign fits "
-                          "one multi-fidelity model of the distance (leave surrogate.model out, or set distance)")
+    if acquisition == "mfkg" and isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite":
+        raise ConfigError("surrogate.model", "mfkg (BoTorch's knowledge gradient) needs one model of the distance "
+                          "over (parameters, fidelity), not the composite one: set model: distance, or use mfei")
     if warm_start is not None:
         raise ConfigError("warm_start", "a multi-fidelity campaign cannot be warm-started (an earlier store's "
                           "points carry no fidelity); leave warm_start out")

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrax.core.search.composite import CompositeKriging
 from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
 
 TARGET_LEVEL = 1.0
@@ -45,12 +46,15 @@ class MultiFidelityKriging:
 
     @classmethod
     def fit(cls, x: np.ndarray, level: np.ndarray, distance: np.ndarray, seed: int = 0, *,
-            transform: str = "log1p", threshold: float = math.nan) -> "MultiFidelityKriging":
-        """Fit on ``x`` shape (n, d), ``level`` shape (n,) in [0, 1] and ``distance`` shape (n,),
-        with the noise prior of the metric's threshold (NaN: fitted freely)."""
+            transform: str = "log1p", threshold: float = math.nan,
+            noise_sd: float | None = None) -> "MultiFidelityKriging":
+        """Fit on ``x`` shape (n, d), ``level`` shape (n,) in [0, 1] and values ``distance`` shape
+        (n,), with the noise prior ``noise_sd`` (values' units) or else that of the metric's
+        ``threshold`` (NaN: fitted freely)."""
         xs = with_level(x, level)
         inner = Kriging.fit(xs, distance, seed=seed, transform=transform,
-                            noise_sd=noise_sd_from_threshold(threshold), fidelity_column=xs.shape[1] - 1)
+                            noise_sd=noise_sd if noise_sd is not None else noise_sd_from_threshold(threshold),
+                            fidelity_column=xs.shape[1] - 1)
         return cls(inner, xs.shape[1] - 1)
 
     # The Kriging interface, at the target level --------------------------------------------------
@@ -93,5 +97,95 @@ class MultiFidelityKriging:
     def hyperparameters(self) -> dict[str, object]:
         return {**self.inner.hyperparameters(), "fidelity_levels": sorted(set(self.train_level.round(6).tolist()))}
 
+    # What a multi-fidelity acquisition asks ------------------------------------------------------
+    def correlation(self, x: np.ndarray, level: float) -> np.ndarray:
+        """Posterior correlation, in [0, 1], between the target and ``level`` at ``x`` (m, d) → (m,)."""
+        if level >= TARGET_LEVEL:
+            return np.ones(len(np.atleast_2d(x)))
+        _, sd1 = self.latent(x)
+        _, sdl = self.latent(x, level=level)
+        cov = self.inner.covariance(with_level(x, TARGET_LEVEL), with_level(x, level))
+        return np.clip(cov / np.maximum(sd1 * sdl, 1e-12), 0.0, 1.0)
 
-__all__ = ["MultiFidelityKriging", "TARGET_LEVEL", "with_level"]
+    def noise_share(self, x: np.ndarray, level: float) -> np.ndarray:
+        """σ_noise / √(s_l² + σ_noise²) at ``x`` (m, d) and ``level`` → (m,): near 1 where the model
+        knows the level as well as one run's noise allows (a run there teaches little)."""
+        _, sdl = self.latent(x, level=level)
+        noise = self.inner.noise_sd()
+        return noise / np.sqrt(sdl**2 + noise**2)
+
+    def condition(self, rows: np.ndarray) -> "MultiFidelityKriging":
+        """The model conditioned on ``rows`` (k, d + 1), level last, observed at its own posterior
+        mean (the Kriging believer: the next point of a batch goes elsewhere)."""
+        import torch
+
+        from calibrax.core.search.surrogate import DTYPE
+
+        inner = self.inner
+        x = torch.as_tensor(np.atleast_2d(rows), dtype=DTYPE)
+        with torch.no_grad():
+            y = inner.model.posterior(x).mean
+            fantasy = inner.model.condition_on_observations(x, y)
+        return MultiFidelityKriging(Kriging(fantasy, torch.cat([inner.train_x, x]), torch.cat([inner.train_y, y]),
+                                            inner.transform, inner.noise_floor), self.dim)
+
+
+class MultiFidelityComposite(CompositeKriging):
+    """The composite model (:mod:`calibrax.core.search.composite`: one GP per feature, the distance
+    from their joint prediction) with a :class:`MultiFidelityKriging` per feature, read at the
+    target. A cheap cell's bias is smooth in each feature (a denser or looser bed, a lower τ/σ)
+    where it is not in the distance, which folds the features into a cone; so the features carry it."""
+
+    @classmethod
+    def fit_levels(cls, x: np.ndarray, level: np.ndarray, terms: list[dict], distance: np.ndarray, seed: int = 0,
+                   failed_x: np.ndarray | None = None) -> "MultiFidelityComposite":
+        """As :meth:`CompositeKriging.fit`, with each point's fidelity ``level`` shape (n,)."""
+        import torch
+
+        from calibrax.core.search.composite import FAILURE_PENALTY
+        from calibrax.core.search.surrogate import DTYPE
+
+        names = tuple(sorted(set.intersection(*(set(t) for t in terms))))
+        if not names:
+            raise ValueError("the points share no distance term")
+        x = np.asarray(x, dtype=float)
+        models, target, scale = {}, {}, {}
+        for name in names:
+            values = np.array([t[name].sim for t in terms], dtype=float)
+            noise = np.array([t[name].sim_stderr for t in terms], dtype=float)
+            noise = noise[np.isfinite(noise) & (noise > 0)]
+            models[name] = MultiFidelityKriging.fit(x, level, values, seed, transform="identity",
+                                                    noise_sd=float(np.median(noise)) if noise.size else math.nan)
+            target[name], scale[name] = terms[-1][name].exp, terms[-1][name].scale
+        dist = np.asarray(distance, dtype=float)
+        failed = np.zeros((0, x.shape[1])) if failed_x is None or len(failed_x) == 0 else np.atleast_2d(failed_x)
+        return cls(names, models, target, scale, torch.as_tensor(x, dtype=DTYPE),
+                   -torch.as_tensor(dist, dtype=DTYPE).reshape(-1, 1), torch.as_tensor(failed, dtype=DTYPE),
+                   FAILURE_PENALTY * max(float(np.max(dist)), 1.0))
+
+    def correlation(self, x: np.ndarray, level: float) -> np.ndarray:
+        """The features' mean posterior correlation between the target and ``level`` at ``x``."""
+        return np.mean([self.features[n].correlation(x, level) for n in self.names], axis=0)
+
+    def noise_share(self, x: np.ndarray, level: float) -> np.ndarray:
+        """The features' mean :meth:`MultiFidelityKriging.noise_share`."""
+        return np.mean([self.features[n].noise_share(x, level) for n in self.names], axis=0)
+
+    def condition(self, rows: np.ndarray) -> "MultiFidelityComposite":
+        """Every feature's model conditioned on ``rows`` at its posterior mean."""
+        import torch
+
+        from calibrax.core.search.surrogate import DTYPE
+
+        new = {n: self.features[n].condition(rows) for n in self.names}
+        x = torch.cat([self.train_x, torch.as_tensor(np.atleast_2d(rows)[:, :-1], dtype=DTYPE)])
+        return MultiFidelityComposite(self.names, new, self.target, self.scale, x, self.train_y, self.failed_x,
+                                      self.penalty)
+
+    def hyperparameters(self) -> dict[str, object]:
+        out = super().hyperparameters()
+        out["kernel"] = "composite_matern52_ard_ar1_fidelity"
+        return out
+
+
+__all__ = ["MultiFidelityComposite", "MultiFidelityKriging", "TARGET_LEVEL", "with_level"]

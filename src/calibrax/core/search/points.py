@@ -126,8 +126,16 @@ def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], see
         return None
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     if obs.level is not None:
-        from calibrax.core.search.multifidelity import MultiFidelityKriging
+        from calibrax.core.search.composite import composite_ready
+        from calibrax.core.search.multifidelity import MultiFidelityComposite, MultiFidelityKriging
 
+        terms = [p.metric.terms() for p in finished]
+        if surrogate.get("model", "composite") == "composite" and len(finished) >= 2 and composite_ready(terms):
+            failed = [p for p in points if physically_failed(p)]
+            return MultiFidelityComposite.fit_levels(
+                np.stack([p.unit for p in finished]), np.asarray([levels[p.fidelity] for p in finished]), terms,
+                np.asarray([p.metric.value for p in finished]), seed,
+                failed_x=np.stack([p.unit for p in failed]) if failed else None)
         threshold, _ = noise_threshold(finished)
         return MultiFidelityKriging.fit(obs.x, obs.level, obs.y, seed, transform=surrogate.get("transform", "log1p"),
                                         threshold=threshold if surrogate.get("noise", "metric") == "metric" else math.nan)

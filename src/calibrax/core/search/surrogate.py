@@ -140,7 +140,11 @@ class Kriging:
             x_train = m.train_inputs[0]
             k = m.covar_module(x_train).to_dense()
             k = k + m.likelihood.noise.reshape(-1)[0] * torch.eye(k.shape[-1], dtype=k.dtype)
-            chol = torch.linalg.cholesky(k)
+            from linear_operator.utils.cholesky import psd_safe_cholesky
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                chol = psd_safe_cholesky(k, max_tries=6)  # a growing jitter where two points coincide
             resid = (m.train_targets - m.mean_module.constant).unsqueeze(-1)
             self._cache = (chol, torch.cholesky_solve(resid, chol))
         return self._cache

@@ -61,20 +61,12 @@ class AugmentedExpectedImprovement:
 
     def score(self, model, x: np.ndarray, level: float, cost: float, target_cost: float,
               best: float) -> np.ndarray:
-        """AEI at ``x`` shape (m, d) run at ``level`` costing ``cost`` → (m,)."""
-        from calibrax.core.search.multifidelity import with_level
-
+        """AEI at ``x`` shape (m, d) run at ``level`` costing ``cost`` → (m,); ``model`` a
+        :class:`~calibrax.core.search.multifidelity.MultiFidelityKriging` or
+        :class:`~calibrax.core.search.multifidelity.MultiFidelityComposite`."""
         mean1, sd1 = model.latent(x)
         ei = _expected_improvement(best, mean1, sd1)
-        if level >= 1.0:
-            corr, sd_l = np.ones(len(x)), sd1
-        else:
-            _, sd_l = model.latent(x, level=level)
-            cov = model.inner.covariance(with_level(x, 1.0), with_level(x, level))
-            corr = np.clip(cov / np.maximum(sd1 * sd_l, 1e-12), 0.0, 1.0)
-        noise = model.inner.noise_sd()
-        useful = 1.0 - noise / np.sqrt(sd_l**2 + noise**2)
-        return ei * corr * useful * (target_cost / cost)
+        return ei * model.correlation(x, level) * (1.0 - model.noise_share(x, level)) * (target_cost / cost)
 
     def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0,
@@ -87,7 +79,7 @@ class AugmentedExpectedImprovement:
         local = grid(d, 256, seed=seed + 1)[:256] - 0.5
         target_cost = fidelities[-1][1]
         chosen: list[np.ndarray] = []
-        current = _believe(model, pending)
+        current = model if pending is None or len(pending) == 0 else model.condition(pending)
         for _ in range(q):
             best = -current.best_posterior_mean()
             options = []
@@ -104,27 +96,8 @@ class AugmentedExpectedImprovement:
             _, level, x = max(options, key=lambda t: t[0])
             row = np.append(x, level)
             chosen.append(row)
-            current = _believe(current, row.reshape(1, -1))
+            current = current.condition(row.reshape(1, -1))
         return np.stack(chosen)
-
-
-def _believe(model, rows: np.ndarray | None):
-    """``model`` conditioned on ``rows`` (shape (k, d + 1), level last) observed at its own
-    posterior mean: the Kriging believer, so that the next point of a batch goes elsewhere."""
-    if rows is None or len(rows) == 0:
-        return model
-    import torch
-
-    from calibrax.core.search.multifidelity import MultiFidelityKriging
-    from calibrax.core.search.surrogate import DTYPE, Kriging
-
-    inner = model.inner
-    x = torch.as_tensor(np.atleast_2d(rows), dtype=DTYPE)
-    with torch.no_grad():
-        y = inner.model.posterior(x).mean
-        fantasy = inner.model.condition_on_observations(x, y)
-    return MultiFidelityKriging(Kriging(fantasy, torch.cat([inner.train_x, x]), torch.cat([inner.train_y, y]),
-                                        inner.transform, inner.noise_floor), model.dim)
 
 
 class MultiFidelityKnowledgeGradient:
