@@ -341,13 +341,14 @@ def _surface(design: str) -> Surface:
     return _SURFACES[design]
 
 
-def _quartiles(v: list[float]) -> str:
+def _quartiles(v: list[float], fmt: str = ".3g") -> str:
+    """"median [q1–q3]" of the finite values, in ``fmt``."""
     a = np.asarray(v, float)
     a = a[np.isfinite(a)]
     if a.size == 0:
         return "—"
     q1, med, q3 = np.percentile(a, [25, 50, 75])
-    return f"{med:.3g} [{q1:.3g}–{q3:.3g}]"
+    return f"{med:{fmt}} [{q1:{fmt}}–{q3:{fmt}}]"
 
 
 def table(results: dict[str, list[Score]], budget: int) -> str:

@@ -43,7 +43,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from calibration import DESIGN, STEMS, T_EXPERIMENT, Problem, Surface, _reached, run_strategy, space  # noqa: E402
+from calibration import (DESIGN, T_EXPERIMENT, Problem, Surface, _quartiles, _reached, run_strategy,  # noqa: E402
+                         space)
 
 DESIGN_TINY = DESIGN.with_name("design-tiny.csv")
 STRATEGIES = ("single", "single_default", "mfei", "mfei_distance", "mfkg", "mfei_lt")
@@ -138,15 +139,6 @@ def _surface(path: Path) -> Surface:
     if path not in _SURFACES:
         _SURFACES[path] = Surface.fit(path)
     return _SURFACES[path]
-
-
-def _quartiles(v: list[float], fmt: str = ".3g") -> str:
-    a = np.asarray(v, float)
-    a = a[np.isfinite(a)]
-    if a.size == 0:
-        return "—"
-    q1, med, q3 = np.percentile(a, [25, 50, 75])
-    return f"{med:{fmt}} [{q1:{fmt}}–{q3:{fmt}}]"
 
 
 def table(results: dict[str, list[Run]], budget_cpu: float) -> str:

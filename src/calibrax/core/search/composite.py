@@ -72,11 +72,16 @@ class CompositeKriging:
 
     @classmethod
     def fit(cls, x: np.ndarray, terms: list[dict], distance: np.ndarray, seed: int = 0,
-            failed_x: np.ndarray | None = None) -> "CompositeKriging":
+            failed_x: np.ndarray | None = None, fit_feature=None) -> "CompositeKriging":
         """Fit on unit-cube points ``x`` shape (n, d), their metric terms (one
         {name: :class:`~calibrax.core.search.metric.DistanceTerm`} per point) and observed distances (n,).
         The target and scale of each feature are the last point's (they depend on the experiment
-        and the seeds per point only). ``failed_x`` shape (k, d): points that failed physically."""
+        and the seeds per point only). ``failed_x`` shape (k, d): points that failed physically.
+        ``fit_feature(values (n,), noise_sd)``: fits one feature's model (default: a
+        :class:`Kriging` over ``x``)."""
+        if fit_feature is None:
+            def fit_feature(values: np.ndarray, noise_sd: float | None) -> Kriging:
+                return Kriging.fit(x, values, seed=seed, transform="identity", noise_sd=noise_sd)
         names = tuple(sorted(set.intersection(*(set(t) for t in terms))))
         if not names:
             raise ValueError("the points share no distance term")
@@ -86,8 +91,7 @@ class CompositeKriging:
             values = np.array([t[name].sim for t in terms], dtype=float)
             noise = np.array([t[name].sim_stderr for t in terms], dtype=float)
             noise = noise[np.isfinite(noise) & (noise > 0)]
-            models[name] = Kriging.fit(x, values, seed=seed, transform="identity",
-                                       noise_sd=float(np.median(noise)) if noise.size else None)
+            models[name] = fit_feature(values, float(np.median(noise)) if noise.size else None)
             target[name], scale[name] = terms[-1][name].exp, terms[-1][name].scale
         dist = np.asarray(distance, dtype=float)
         ty = -torch.as_tensor(dist, dtype=DTYPE).reshape(-1, 1)

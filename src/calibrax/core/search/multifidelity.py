@@ -140,28 +140,11 @@ class MultiFidelityComposite(CompositeKriging):
     def fit_levels(cls, x: np.ndarray, level: np.ndarray, terms: list[dict], distance: np.ndarray, seed: int = 0,
                    failed_x: np.ndarray | None = None) -> "MultiFidelityComposite":
         """As :meth:`CompositeKriging.fit`, with each point's fidelity ``level`` shape (n,)."""
-        import torch
+        def fit_feature(values: np.ndarray, noise_sd: float | None) -> MultiFidelityKriging:
+            return MultiFidelityKriging.fit(x, level, values, seed, transform="identity",
+                                            noise_sd=math.nan if noise_sd is None else noise_sd)
 
-        from calibrax.core.search.composite import FAILURE_PENALTY
-        from calibrax.core.search.surrogate import DTYPE
-
-        names = tuple(sorted(set.intersection(*(set(t) for t in terms))))
-        if not names:
-            raise ValueError("the points share no distance term")
-        x = np.asarray(x, dtype=float)
-        models, target, scale = {}, {}, {}
-        for name in names:
-            values = np.array([t[name].sim for t in terms], dtype=float)
-            noise = np.array([t[name].sim_stderr for t in terms], dtype=float)
-            noise = noise[np.isfinite(noise) & (noise > 0)]
-            models[name] = MultiFidelityKriging.fit(x, level, values, seed, transform="identity",
-                                                    noise_sd=float(np.median(noise)) if noise.size else math.nan)
-            target[name], scale[name] = terms[-1][name].exp, terms[-1][name].scale
-        dist = np.asarray(distance, dtype=float)
-        failed = np.zeros((0, x.shape[1])) if failed_x is None or len(failed_x) == 0 else np.atleast_2d(failed_x)
-        return cls(names, models, target, scale, torch.as_tensor(x, dtype=DTYPE),
-                   -torch.as_tensor(dist, dtype=DTYPE).reshape(-1, 1), torch.as_tensor(failed, dtype=DTYPE),
-                   FAILURE_PENALTY * max(float(np.max(dist)), 1.0))
+        return cls.fit(x, terms, distance, seed, failed_x, fit_feature)
 
     def correlation(self, x: np.ndarray, level: float) -> np.ndarray:
         """The features' mean posterior correlation between the target and ``level`` at ``x``."""
