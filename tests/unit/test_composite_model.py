@@ -83,7 +83,8 @@ def test_qei_over_the_composite_objective_proposes_two_points_near_the_valley(ac
 
 def test_a_failed_point_repels_the_recommendation_and_the_search():
     """A crash is data: a point whose simulations all failed, in the valley itself, raises the
-    expected distance around it, and neither the answer nor qEI lands there."""
+    expected distance around it, less and less away from it, not at all at the finished points;
+    and neither the answer nor qEI lands there."""
     rng = np.random.default_rng(0)
     x = rng.random((12, 2))
     terms, d = _terms(x, rng)
@@ -91,8 +92,26 @@ def test_a_failed_point_repels_the_recommendation_and_the_search():
     model = CompositeKriging.fit(x, terms, d, seed=0, failed_x=crash)
     clean = CompositeKriging.fit(x, terms, d, seed=0)
     assert model.latent(crash)[0][0] > clean.latent(crash)[0][0] + model.penalty * 0.9
-    assert model.latent(np.array([[0.5, 0.6]]))[0] == pytest.approx(clean.latent(np.array([[0.5, 0.6]]))[0])
+    away = np.array([[0.5, 0.3 + step] for step in (0.1, 0.2, 0.3)])
+    added = model.latent(away)[0] - clean.latent(away)[0]
+    assert np.all(np.diff(added) < 0) and added[0] < model.penalty, added
+    assert model.latent(x)[0] == pytest.approx(clean.latent(x)[0])
     obs = Observations(x, d, np.full(12, np.nan))
     batch = QExpectedImprovement().propose(model, SPACE, obs, 2, seed=3)
     assert np.all(np.linalg.norm(batch - crash, axis=1) > 0.05), batch
     assert model.hyperparameters()["failed_points"] == 1
+
+
+def test_a_region_of_crashes_is_penalised_as_a_whole():
+    """Five crashes spread over x₀ > 0.6 make an untried point among them nearly as bad as a crash,
+    while the finished points in x₀ < 0.6 keep their distance: the search learns the region, not
+    five holes in it."""
+    rng = np.random.default_rng(1)
+    x = rng.random((10, 2)) * np.array([0.55, 1.0])
+    terms, d = _terms(x, rng)
+    crashes = np.array([[0.7, 0.1], [0.9, 0.3], [0.75, 0.55], [0.95, 0.75], [0.7, 0.95]])
+    model = CompositeKriging.fit(x, terms, d, seed=0, failed_x=crashes)
+    clean = CompositeKriging.fit(x, terms, d, seed=0)
+    inside = np.array([[0.85, 0.45], [0.85, 0.85]])
+    assert np.all(model.latent(inside)[0] - clean.latent(inside)[0] > 0.5 * model.penalty)
+    assert model.latent(x)[0] == pytest.approx(clean.latent(x)[0])

@@ -19,12 +19,12 @@ features' posterior:
   :class:`~botorch.models.ModelListGP` and scores each sample's −D through a
   :class:`~botorch.acquisition.objective.GenericMCObjective`.
 
-Failed simulations have no features, but a crash is data: a point whose every simulation failed
-physically adds a penalty bump to the distance, :data:`FAILURE_PENALTY` × the largest observed
-distance at the point, falling off as a Gaussian of radius :data:`FAILURE_RADIUS` (unit cube), to
-the expected distance and to every sample the acquisition scores; the search and the
-recommendation keep away from where the engine crashed (the distance model gives such a point a
-penalty distance instead).
+Failed simulations have no features, but a crash is data: the points whose every simulation
+failed physically, with the finished ones, give a model of the probability p(x) that the engine
+fails at x (:mod:`calibrax.core.search.failures`), and :data:`FAILURE_PENALTY` × the largest
+observed distance × (2p(x) − 1, clipped to [0, 1]) is added to the expected distance and to every
+sample the acquisition scores. The search and the recommendation keep away from a region that crashes, not only from its
+crashed points (the distance model gives such a point a penalty distance instead).
 
 Measured on benchmarks/calibration.py (docs/explanation/answer.md, "How many simulations, measured").
 """
@@ -37,12 +37,11 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from calibrax.core.search.failures import FailureModel
 from calibrax.core.search.surrogate import DTYPE, Kriging
 
-#: a failed point's penalty at its centre, in units of the largest observed distance
+#: the penalty where the engine surely fails, in units of the largest observed distance
 FAILURE_PENALTY = 2.0
-#: the penalty's Gaussian radius, unit cube
-FAILURE_RADIUS = 0.05
 
 
 @dataclass
@@ -58,6 +57,7 @@ class CompositeKriging:
         train_y: −(observed distance), shape (n, 1) (the incumbent for ``best_f: observed``).
         failed_x: points whose simulations all failed physically, shape (k, d), unit cube.
         penalty: the failure penalty's height (distance units).
+        failure: the model of where the engine fails (None: no point failed).
     """
 
     names: tuple[str, ...]
@@ -69,6 +69,7 @@ class CompositeKriging:
     failed_x: torch.Tensor
     penalty: float
     transform: str = "identity"
+    failure: FailureModel | None = None
 
     @classmethod
     def fit(cls, x: np.ndarray, terms: list[dict], distance: np.ndarray, seed: int = 0,
@@ -98,14 +99,14 @@ class CompositeKriging:
         failed = np.zeros((0, x.shape[1])) if failed_x is None or len(failed_x) == 0 else np.atleast_2d(failed_x)
         penalty = FAILURE_PENALTY * max(float(np.max(dist)), 1.0)
         return cls(names, models, target, scale, torch.as_tensor(x, dtype=DTYPE), ty,
-                   torch.as_tensor(failed, dtype=DTYPE), penalty)
+                   torch.as_tensor(failed, dtype=DTYPE), penalty, failure=FailureModel.fit(x, failed, seed))
 
     def failure_penalty(self, x: torch.Tensor) -> torch.Tensor:
-        """The failed points' penalty at ``x`` shape (..., d) → (...) (distance units)."""
-        if self.failed_x.shape[0] == 0:
+        """The penalty for failing at ``x`` shape (..., d) → (...) (distance units): the height
+        times the weight of :meth:`FailureModel.weight` there."""
+        if self.failure is None:
             return torch.zeros(x.shape[:-1], dtype=x.dtype)
-        d2 = ((x.unsqueeze(-2) - self.failed_x) ** 2).sum(-1)
-        return self.penalty * torch.exp(-d2 / (2 * FAILURE_RADIUS**2)).sum(-1)
+        return self.penalty * self.failure.weight(x)
 
     # -- the distance's posterior -------------------------------------------------------------
     def _moments(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -125,7 +126,9 @@ class CompositeKriging:
         mean2, var2 = self._moments(xs)
         m = np.sqrt(np.maximum(mean2, 0.0))
         sd = np.sqrt(var2) / (2.0 * np.maximum(m, 1e-12))
-        return m + self.failure_penalty(torch.as_tensor(xs, dtype=DTYPE)).numpy(), sd
+        if self.failure is not None:
+            m = m + self.penalty * self.failure.weight_at(xs)
+        return m, sd
 
     def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The same as :meth:`latent` (the composite model has no transform)."""

@@ -163,7 +163,7 @@ class MultiFidelityComposite(CompositeKriging):
         new = {n: self.features[n].condition(rows) for n in self.names}
         x = torch.cat([self.train_x, torch.as_tensor(np.atleast_2d(rows)[:, :-1], dtype=DTYPE)])
         return MultiFidelityComposite(self.names, new, self.target, self.scale, x, self.train_y, self.failed_x,
-                                      self.penalty)
+                                      self.penalty, failure=self.failure)
 
     def hyperparameters(self) -> dict[str, object]:
         out = super().hyperparameters()

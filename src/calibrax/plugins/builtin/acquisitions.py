@@ -11,6 +11,7 @@ seed, and improving on it is a chase after noise (``best_f: observed`` is the te
 from __future__ import annotations
 
 import abc
+import logging
 import warnings
 
 from typing import TYPE_CHECKING
@@ -22,6 +23,10 @@ from calibrax.core.search.design import sobol_points
 from calibrax.core.hookspecs import hookimpl
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.errors import ConfigError
+
+log = logging.getLogger(__name__)
+#: a best qEI at or below this (distance units) is flat: every candidate's improvement underflowed
+FLAT_EI = 1e-9
 
 if TYPE_CHECKING:  # torch is imported only when a proposal is made: simulation processes never need it
     import torch
@@ -48,6 +53,12 @@ class _BoTorchAcquisition(abc.ABC):
 
     def propose(self, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+        return self.maximise(self.build, model, space, observations, q, pending, seed)[0]
+
+    def maximise(self, build, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int,
+                 pending: np.ndarray | None, seed: int) -> tuple[np.ndarray, float]:
+        """The ``q`` points (shape (q, d), unit cube) that maximise the acquisition ``build(model,
+        observations, pending, sampler)`` returns, and its value there."""
         import torch
         from botorch.optim import optimize_acqf
         from botorch.sampling import SobolQMCNormalSampler
@@ -61,13 +72,13 @@ class _BoTorchAcquisition(abc.ABC):
         x_pending = None if pending is None or len(pending) == 0 else torch.as_tensor(pending, dtype=DTYPE)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # BoTorch's advice to prefer qLogEI: qei is the paper's choice
-            acqf = self.build(model, observations, x_pending, sampler)
+            acqf = build(model, observations, x_pending, sampler)
         bounds = torch.stack([torch.zeros(space.dim, dtype=DTYPE), torch.ones(space.dim, dtype=DTYPE)])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cand, _ = optimize_acqf(acqf, bounds=bounds, q=q, num_restarts=self.num_restarts,
-                                    raw_samples=self.raw_samples, options={"seed": seed})
-        return cand.detach().numpy().reshape(q, space.dim)
+            cand, value = optimize_acqf(acqf, bounds=bounds, q=q, num_restarts=self.num_restarts,
+                                        raw_samples=self.raw_samples, options={"seed": seed})
+        return cand.detach().numpy().reshape(q, space.dim), float(value)
 
 
 def _objective(model):
@@ -94,7 +105,13 @@ class _ImprovementAcquisition(_BoTorchAcquisition):
 
 
 class QExpectedImprovement(_ImprovementAcquisition):
-    """q-point Expected Improvement (the paper's 2-point EI) over the incumbent ``best_f``."""
+    """q-point Expected Improvement (the paper's 2-point EI) over the incumbent ``best_f``.
+
+    Where the model is sure that nothing improves on the incumbent, qEI is zero everywhere to
+    machine precision (:data:`FLAT_EI`) and its optimiser returns its random starting points:
+    proposals anywhere, into a region that crashes as readily as anywhere else. The batch is then
+    chosen by qLogEI, the same criterion on a log scale, which still ranks the candidates (Ament
+    et al. 2023, "Unexpected improvements to expected improvement")."""
 
     name = "qei"
 
@@ -103,6 +120,15 @@ class QExpectedImprovement(_ImprovementAcquisition):
 
         return qExpectedImprovement(model.model, best_f=self.incumbent(model), sampler=sampler, X_pending=pending,
                                     objective=_objective(model))
+
+    def propose(self, model, space, observations, q, *, pending=None, seed=0):
+        unit, value = self.maximise(self.build, model, space, observations, q, pending, seed)
+        if value > FLAT_EI:
+            return unit
+        log.info("qEI is flat (at most %.2g, distance units): the batch is ranked by qLogEI", value)
+        ranked = QLogExpectedImprovement(self.best_f, num_restarts=self.num_restarts, raw_samples=self.raw_samples,
+                                         mc_samples=self.mc_samples)
+        return ranked.propose(model, space, observations, q, pending=pending, seed=seed)
 
 
 class QLogExpectedImprovement(_ImprovementAcquisition):
