@@ -46,25 +46,24 @@ class FailureModel:
         indicator = np.concatenate([np.zeros(done_x.shape[0]), np.ones(failed_x.shape[0])])
         return cls(Kriging.fit(x, indicator, seed=seed, transform="identity", noise_sd=FAILURE_NOISE))
 
-    def probability(self, x: torch.Tensor) -> torch.Tensor:
-        """Probability of a physical failure at ``x`` shape (..., d) → (...), in [0, 1] (the
-        posterior mean of the indicator, clipped; differentiable in ``x``, for the acquisition)."""
-        x = torch.as_tensor(x, dtype=DTYPE)
-        mean = self.kriging.model.posterior(x).mean.squeeze(-1)
-        return (-mean).clamp(0.0, 1.0)
-
     def weight(self, x: torch.Tensor) -> torch.Tensor:
-        """The penalty's weight at ``x`` shape (..., d) → (...): 0 where a failure is no more
-        likely than not, rising linearly to 1 where it is certain (2p − 1, clipped). One crash
-        among finished points then repels from its own neighbourhood only, while a region of
-        crashes is penalised as a whole."""
-        return (2.0 * self.probability(x) - 1.0).clamp(0.0, 1.0)
+        """The penalty's weight at ``x`` shape (..., d) → (...), differentiable in ``x`` (for the
+        acquisition); see :func:`penalty_weight`."""
+        x = torch.as_tensor(x, dtype=DTYPE)
+        return penalty_weight(-self.kriging.model.posterior(x).mean.squeeze(-1))
 
     def weight_at(self, x: np.ndarray) -> np.ndarray:
         """:meth:`weight` at ``x`` shape (m, d) → (m,), in chunks that never build a joint
         covariance (for maps and the answer)."""
-        mean, _ = self.kriging.latent(x)
-        return np.clip(2.0 * np.clip(mean, 0.0, 1.0) - 1.0, 0.0, 1.0)
+        return penalty_weight(self.kriging.latent(x)[0])
 
 
-__all__ = ["FAILURE_NOISE", "FailureModel"]
+def penalty_weight(indicator_mean):
+    """The penalty's weight from the indicator's posterior mean (a numpy array or a torch tensor,
+    any shape): with p the mean clipped to [0, 1], 2p − 1 clipped to [0, 1]. It is 0 where a failure
+    is no more likely than not and 1 where it is certain, so one crash among finished points repels
+    from its own neighbourhood only, while a region of crashes is penalised as a whole."""
+    return (2.0 * indicator_mean.clip(0.0, 1.0) - 1.0).clip(0.0, 1.0)
+
+
+__all__ = ["FAILURE_NOISE", "FailureModel", "penalty_weight"]

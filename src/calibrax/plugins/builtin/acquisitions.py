@@ -53,12 +53,12 @@ class _BoTorchAcquisition(abc.ABC):
 
     def propose(self, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int, *,
                 pending: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
-        return self.maximise(self.build, model, space, observations, q, pending, seed)[0]
+        return self.maximise(model, space, observations, q, pending, seed)[0]
 
-    def maximise(self, build, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int,
+    def maximise(self, model: "Kriging | None", space: ParameterSpace, observations: Observations, q: int,
                  pending: np.ndarray | None, seed: int) -> tuple[np.ndarray, float]:
-        """The ``q`` points (shape (q, d), unit cube) that maximise the acquisition ``build(model,
-        observations, pending, sampler)`` returns, and its value there."""
+        """The ``q`` points (shape (q, d), unit cube) that maximise :meth:`build`'s acquisition, and
+        its value there."""
         import torch
         from botorch.optim import optimize_acqf
         from botorch.sampling import SobolQMCNormalSampler
@@ -72,7 +72,7 @@ class _BoTorchAcquisition(abc.ABC):
         x_pending = None if pending is None or len(pending) == 0 else torch.as_tensor(pending, dtype=DTYPE)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # BoTorch's advice to prefer qLogEI: qei is the paper's choice
-            acqf = build(model, observations, x_pending, sampler)
+            acqf = self.build(model, observations, x_pending, sampler)
         bounds = torch.stack([torch.zeros(space.dim, dtype=DTYPE), torch.ones(space.dim, dtype=DTYPE)])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -122,7 +122,7 @@ class QExpectedImprovement(_ImprovementAcquisition):
                                     objective=_objective(model))
 
     def propose(self, model, space, observations, q, *, pending=None, seed=0):
-        unit, value = self.maximise(self.build, model, space, observations, q, pending, seed)
+        unit, value = self.maximise(model, space, observations, q, pending, seed)
         if value > FLAT_EI:
             return unit
         log.info("qEI is flat (at most %.2g, distance units): the batch is ranked by qLogEI", value)
