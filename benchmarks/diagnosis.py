@@ -3,11 +3,14 @@
     .venv/bin/python benchmarks/diagnosis.py                      # emulator level, 30 per class (minutes)
     .venv/bin/python benchmarks/diagnosis.py --level dem --workers 2   # DEM level, 3 per class (hours)
     .venv/bin/python benchmarks/diagnosis.py make-design --workers 2   # re-make the shipped design data
+    .venv/bin/python benchmarks/diagnosis.py make-mismatch --workers 2 # (re)make only its mismatch blocks
 
 The first two are ``calibrax diagnose-benchmark`` with these defaults (it prints the scores table
 and writes scores.md, scores.json, confusion.png). ``make-design`` runs the shared DEM design of
 the shipped model (calibrax/diagnosis/benchmark/data/tiny.yaml) and the unlisted effect's block,
-and writes their features to calibrax/diagnosis/benchmark/data/design-tiny.json.
+and writes their features to calibrax/diagnosis/benchmark/data/design-tiny.json, with the blocks
+of every procedure mismatch (the emulator level's mismatch cases); ``make-mismatch`` runs those
+blocks alone and replaces them in the file, keeping its other rows.
 """
 
 from __future__ import annotations
@@ -20,29 +23,40 @@ import sys
 from pathlib import Path
 
 
-def make_design(workers: int, folder: Path, output: Path) -> int:
+def make_design(workers: int, folder: Path, output: Path, only_mismatch: bool = False) -> int:
     from calibrax import __version__
-    from calibrax.diagnosis.benchmark.design import run_design, shared_cases, unlisted_cases
+    from calibrax.diagnosis.benchmark.cases import MISMATCHES
+    from calibrax.diagnosis.benchmark.design import mismatch_cases, run_design, shared_cases, unlisted_cases
     from calibrax.diagnosis.benchmark.emulated import export_design
     from calibrax.diagnosis.benchmark.model import BenchmarkModel
     from calibrax.core.registry import get_manager
 
     model = BenchmarkModel.load()
     executor = get_manager().create("executor", "local", workers=workers)
-    rows = []
+    rows = [r for r in json.loads(output.read_text())["rows"] if not r.get("mismatch")] if only_mismatch else []
     try:
-        for unlisted in (False, True):
+        for unlisted in () if only_mismatch else (False, True):
             points = (unlisted_cases if unlisted else shared_cases)(model)[0]
             _, outcomes = run_design(model, folder, executor, unlisted=unlisted)
             rows += export_design(model, outcomes, points, "")["rows"]
+        for kind in MISMATCHES:
+            points = mismatch_cases(model, kind)[0]
+            _, outcomes = run_design(model, folder, executor, mismatch=kind)
+            rows += export_design(model, outcomes, points, "", mismatch=kind)["rows"]
     finally:
         executor.shutdown()
     simulator = get_manager().create("simulator", model.simulator)
     about = (f"Made {datetime.date.today()} by benchmarks/diagnosis.py make-design with calibrax {__version__} and "
              f"{simulator.version()}: the diagnosis design of {model.source.name} (its calibrated point's replicates, "
              f"baseline points and {model.budget.per_effect} points per candidate effect over its box) and a block of "
-             f"rolling-friction points (the unlisted effect), one simulation per row, features as "
+             f"rolling-friction points (the unlisted effect), the blocks of each procedure mismatch (rows with "
+             f"'mismatch': the design's calibrated point and first baseline points, same seeds), one simulation per "
+             f"row, features as "
              f"calibrax.diagnosis.gap.diagnosis_features reads them.")
+    if only_mismatch:
+        about = (json.loads(output.read_text())["about"].split(" Mismatch blocks")[0]
+                 + f" Mismatch blocks remade {datetime.date.today()} by make-mismatch with calibrax {__version__} and "
+                 f"{simulator.version()}.")
     output.write_text(json.dumps({"about": about, "model": model.source.name, "rows": rows}, indent=1))
     print(f"written: {output} ({len(rows)} simulations)")
     return 0
@@ -50,7 +64,7 @@ def make_design(workers: int, folder: Path, output: Path) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", nargs="?", default="score", choices=["score", "make-design"])
+    ap.add_argument("what", nargs="?", default="score", choices=["score", "make-design", "make-mismatch"])
     ap.add_argument("--level", default="emulator", choices=["emulator", "dem"])
     ap.add_argument("--per-class", type=int)
     ap.add_argument("--workers", type=int, default=2)
@@ -58,11 +72,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("-o", "--output", type=Path)
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname).1s %(message)s", datefmt="%H:%M:%S")
-    if args.what == "make-design":
+    if args.what in ("make-design", "make-mismatch"):
         from calibrax.diagnosis.benchmark.emulated import DEFAULT_DESIGN
 
         # the DEM level's own design folder: a later --level dem run finds the design finished
-        return make_design(args.workers, Path("runs/diagnose-benchmark-dem/design"), args.output or DEFAULT_DESIGN)
+        return make_design(args.workers, Path("runs/diagnose-benchmark-dem/design"), args.output or DEFAULT_DESIGN,
+                           only_mismatch=args.what == "make-mismatch")
     from calibrax.diagnosis.benchmark.command import run_benchmark
 
     return run_benchmark(level=args.level, per_class=args.per_class, seed=args.seed, workers=args.workers,

@@ -9,13 +9,20 @@ from calibrax.diagnosis.benchmark.scores import answer_from_diagnosis
 from calibrax.diagnosis.gap import FeatureGap
 from calibrax.diagnosis.run import Diagnosis
 from calibrax.diagnosis.scoring import Ranking
+from calibrax.diagnosis.verdict import CONFIRMED, Confirmation, Verdict
 
 
-def _diagnosis(after: list[FeatureGap]) -> Diagnosis:
+def _diagnosis(after: list[FeatureGap], recalibrated: dict | None = None) -> Diagnosis:
     before = [FeatureGap("bulk_density", "density", 1500.0, 10.0, 3, 1440.0, 10.0, 4),
               FeatureGap("peak_ratio_9kPa", "peaks", 0.8, 0.05, 3, 0.78, 0.05, 4)]
+    if after or recalibrated:
+        confirmed = Confirmation("wall_friction", "wall friction", CONFIRMED, 6.0, 0.5, 1.96, 4.0, 8.0,
+                                 recalibrated or {}, tuple(after))
+        final = Verdict("wall_friction", "wall friction", None, (confirmed,))
+    else:
+        final = Verdict("none", "within the noise", None)
     return Diagnosis("analytic_double", ["wall_friction"], {}, ["peaks"], ["bulk_density"],
-                     ["bulk_density", "peak_ratio_9kPa"], before, Ranking([], "none", "within the noise"), {}, after,
+                     ["bulk_density", "peak_ratio_9kPa"], before, Ranking([], final.name, final.reason), final,
                      {}, 1.0, {}, {})
 
 
@@ -38,8 +45,7 @@ def test_a_recalibration_reports_its_own_gap_after():
 def test_the_magnitude_is_scored_on_the_value_the_user_is_told():
     from calibrax.diagnosis.benchmark.scores import Answer
 
-    d = _diagnosis(after=[])
-    d.recalibrated = {"effect": "wall_friction", "effect_values": {"wall_friction": 0.198}}
+    d = _diagnosis(after=[], recalibrated={"effect": "wall_friction", "effect_values": {"wall_friction": 0.198}})
     answer = answer_from_diagnosis("case", d)
     assert answer.recovered == {"wall_friction": 0.198} and answer.magnitude == {"wall_friction": 0.198}
     # an answers file written before `recovered` was kept falls back to the verdict's design posterior

@@ -183,6 +183,20 @@ def feature_gaps(sims: list[dict[str, float]], experiment: list[dict[str, float]
     return out
 
 
+#: the held-out gap (RMS z over k features) is beyond the noise above this quantile of what seed
+#: noise alone gives, √(χ²_k(q) / k) (:func:`noise_gap_limit`): 1.54 for four features
+GAP_NOISE_QUANTILE = 0.95
+
+
+def noise_gap_limit(features: int) -> float:
+    """The RMS z over ``features`` features that seed noise alone stays below with probability
+    :data:`GAP_NOISE_QUANTILE`: √(χ²_k(q) / k)."""
+    from scipy.stats import chi2
+
+    k = max(int(features), 1)
+    return math.sqrt(float(chi2.ppf(GAP_NOISE_QUANTILE, k)) / k)
+
+
 def gap_size(gaps: list[FeatureGap]) -> float:
     """One number for a set of gaps: the root mean square of their z."""
     z = np.array([g.z for g in gaps if math.isfinite(g.z)])

@@ -29,9 +29,9 @@ def _fmt(v: float) -> str:
 
 def headline(d: Diagnosis) -> str:
     """The verdict in one sentence."""
-    reason = d.ranking.reason
+    reason = d.reason
     if d.verdict == NONE_OF_THEM:
-        return "None of the candidates explains the gap: " + reason
+        return "None of the candidates explains the gap: " + reason.removeprefix(NONE_OF_THEM + ": ")
     return reason[:1].upper() + reason[1:]
 
 
@@ -68,13 +68,14 @@ def markdown(d: Diagnosis) -> str:
         interval = ", ".join(f"{lo:.3g} to {hi:.3g}" for lo, hi in m.effect_interval.values()) or "–"
         lines.append(f"| {m.label} | {m.probability:.3f} | {m.log_evidence:.2f} | {best} | {interval} | "
                      f"{m.max_abs_z:.2f} | {'; '.join(m.prior_text) or '–'} |")
-    lines += ["", "## 3. How far it shrinks", ""]
+    lines += ["", "## 3. How far it shrinks", "", *_confirmations(d)]
     if not d.judge_on:
         lines.append(f"No recalibration: every feature the experiment has ({', '.join(d.features)}) is in the groups "
                      f"it would be fitted to ({', '.join(d.fit_on)}), so none is left to judge it on. τ curves or a "
                      "bulk density in the experiment, or other --fit-on groups, give it some.")
     elif not d.recalibrated:
-        lines.append("Nothing to add: no effect was found, so no recalibration was run.")
+        lines.append("Nothing adopted: no candidate was confirmed, so the gap stays what it was." if d.final.confirmations
+                     else "Nothing to add: no candidate was worth confirming, so no recalibration was run.")
     else:
         r = d.recalibrated
         lines += [f"Recalibrated with **{r['label']}** on the {' and '.join(d.fit_on)} features ({', '.join(r['fitted_on'])}): "
@@ -90,6 +91,20 @@ def markdown(d: Diagnosis) -> str:
               "implausible. s_sim is one simulation's seed s.d. from the design's residuals; s_exp is the "
               "replicates' s.d., never below s_sim."]
     return "\n".join(lines) + "\n"
+
+
+def _confirmations(d: Diagnosis) -> list[str]:
+    """The baseline's test and each candidate's confirmation, in words."""
+    out = []
+    if d.final.baseline is not None:
+        b = d.final.baseline.words()
+        out += [b[:1].upper() + b[1:] + ".", ""]
+    if d.ranking.verdict != d.verdict:
+        out += [f"The design's ranking alone would have said: {d.ranking.reason}.", ""]
+    for c in d.final.confirmations:
+        w = c.words()
+        out += [f"- **{c.outcome}**: {w[:1].upper() + w[1:]}."]
+    return out + ([""] if d.final.confirmations else [])
 
 
 def _metric_line(d: Diagnosis) -> list[str]:

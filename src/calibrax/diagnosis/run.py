@@ -10,9 +10,13 @@
    (calibrated parameters and the effect's magnitude) is simulated with fresh seeds, and the gap
    before and after is compared on the *other* groups (the τ curves' flow and shape by default),
    which played no part in that fit.
+4. **The verdict.** A candidate is named only where that confirmation bears it out, and only
+   where the model without any effect misfits the fit features beyond the noise; otherwise the
+   answer is "none" or "none of the candidates", with the best candidate and why it failed
+   (:mod:`calibrax.diagnosis.verdict`).
 
 Simulations run through the study machinery into ``out/design-<hash>.h5`` and
-``out/confirm-<hash>.h5``, each named by a hash of its simulations (the confirmation's point
+``out/confirm-<hash>.h5`` (one per candidate confirmed), each named by a hash of its simulations (the confirmation's point
 depends only on the design's results), so a killed diagnosis resumes without repeating a finished
 simulation, and one whose inputs changed (a resumed campaign's new answer, another ``--fit-on``)
 starts a store of its own beside the old; the outcome is written to ``out/diagnosis.json``.
@@ -26,7 +30,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -39,8 +43,9 @@ from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points
 from calibrax.diagnosis.effects import Effect, EffectParameter
-from calibrax.diagnosis.scoring import (NO_EFFECT, CandidateSpace, Design, Emulator, Ranking,
-                                        Target, rank, score_model)
+from calibrax.diagnosis.scoring import (CandidateSpace, Design, Emulator, Ranking, Target, rank,
+                                        score_model)
+from calibrax.diagnosis.verdict import Confirmation, Verdict, baseline_fit, decide, judge_confirmation
 from calibrax.errors import CalibraxError, ConfigError, DiagnosisError
 
 log = logging.getLogger("calibrax")
@@ -104,8 +109,7 @@ class Diagnosis:
     features: list[str]
     before: list[gaps.FeatureGap]
     ranking: Ranking
-    recalibrated: dict[str, Any]
-    after: list[gaps.FeatureGap]
+    final: Verdict
     simulations: dict[str, int]
     wall_time: float
     box: dict[str, tuple[float, float]]
@@ -117,7 +121,24 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        return self.ranking.verdict
+        """The answer: a confirmed effect's name, ``none`` or ``none of the candidates``."""
+        return self.final.name
+
+    @property
+    def reason(self) -> str:
+        return self.final.reason
+
+    @property
+    def recalibrated(self) -> dict[str, Any]:
+        """The named effect's recalibration (empty where none was named)."""
+        adopted = self.final.adopted
+        return dict(adopted.recalibrated) if adopted else {}
+
+    @property
+    def after(self) -> list[gaps.FeatureGap]:
+        """Every feature's gap at the named effect's recalibration (empty where none was named)."""
+        adopted = self.final.adopted
+        return list(adopted.after) if adopted else []
 
     def held_out(self, which: str) -> list[gaps.FeatureGap]:
         rows = self.before if which == "before" else self.after
@@ -149,9 +170,13 @@ class Diagnosis:
                    "effect_interval": {k: list(v) for k, v in m.effect_interval.items()},
                    "max_abs_z": m.max_abs_z, "z": dict(zip(self.ranking.names, map(float, m.z))),
                    "prior": list(m.prior_text)} for m in self.ranking.models]
+        final = self.final.to_dict()
+        for c, confirmation in zip(final["confirmations"], self.final.confirmations):
+            c["after"] = gap_rows(list(confirmation.after))
         return {"backend": self.backend, "effects": self.effects, "skipped": self.skipped, "fit_on": self.fit_on,
-                "judge_on": self.judge_on, "features": self.features, "verdict": self.verdict,
-                "reason": self.ranking.reason, "unexplained": list(self.ranking.unexplained), "models": models,
+                "judge_on": self.judge_on, "features": self.features, **final,
+                "design_verdict": {"verdict": self.ranking.verdict, "reason": self.ranking.reason,
+                                   "unexplained": list(self.ranking.unexplained)}, "models": models,
                 "before": gap_rows(self.before),
                 "after": gap_rows(self.after), "recalibrated": self.recalibrated,
                 "gap_before": self.gap_before, "gap_after": self.gap_after,
@@ -276,30 +301,34 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                               candidate_spaces(effects, calibrated.experiment), points,
                               [gaps.simulated(o.good, peak_window) for o in outcomes],
                               sum(len(o.failures) for o in outcomes), box, effect_params, seed)
-        names, ranking = scored.design.names, scored.ranking
+        names = scored.design.names
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
-        recal: dict[str, Any] = {}
-        after: list[gaps.FeatureGap] = []
-        confirm_done, confirm_engine = 0, 0.0
-        top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
+        done: dict[str, Any] = {"n": 0, "engine": 0.0, "stores": []}
+
+        def simulate(point: DesignPoint, effect: Effect) -> list[dict[str, float]]:
+            cases = [design_case(calibrated, backend, point, {effect.name: effect})]
+            store = study_store(out, "confirm", cases)
+            outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm",
+                                 stage_progress(f"confirmation of {effect.name}"), shutdown=False)
+            done["n"] += len(point.seeds)
+            done["engine"] += sum(r.provenance.wall_time for r in outcomes[0].good)
+            done["stores"].append(store.name)
+            return gaps.simulated(outcomes[0].good, peak_window)
+
         if not judge:
             log.info("diagnose: every feature of the experiment (%s) is in the groups the recalibration would fit "
                      "(%s): none is left to judge it on, so no recalibration is run", ", ".join(names), ", ".join(fit_on))
-        elif ranking.verdict != NO_EFFECT and top is not None:
-            recal, after, confirm_done, confirm_engine = _recalibrate(calibrated, backend, box, by_name[top.name],
-                                                                      scored, fit_on, budget, seed, out, executor)
-        else:
-            log.info("diagnose: verdict %r: no effect to recalibrate, so nothing to confirm", ranking.verdict)
+        final = judged_verdict(scored, box, by_name, tuple(fit_on), budget, seed, simulate if judge else None)
+        log.info("diagnose: verdict %r: %s", final.name, final.reason)
     finally:
         executor.shutdown()
-    engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + confirm_engine
+    engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + done["engine"]
     sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(scored.failed),
-            "confirm": int(confirm_done), "total": int(sum(len(p.seeds) for p in points) + confirm_done)}
-    stores = {"design": design_store.name, **({"confirm": recal.pop("store")} if "store" in recal else {})}
+            "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
+    stores = {"design": design_store.name, **confirm_stores(final, done["stores"])}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
-                       ranking, recal,
-                       after, sims, time.monotonic() - started,
+                       scored.ranking, final, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
                        dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd))
     write_json(out / "diagnosis.json", result.to_dict())
@@ -334,6 +363,7 @@ class _Scored:
     seed_sd: dict[str, float]
     before: list[gaps.FeatureGap]
     failed: int
+    emulator: Emulator
 
 
 def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace], points: list[DesignPoint],
@@ -359,7 +389,7 @@ def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace
     seed_sd = dict(zip(names, map(float, emulator.sd)))
     centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
     before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
-    return _Scored(design, target, spaces, ranking, experiment, seed_sd, before, failed)
+    return _Scored(design, target, spaces, ranking, experiment, seed_sd, before, failed, emulator)
 
 
 def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Target:
@@ -401,20 +431,37 @@ def recalibration(box: Box, effect: Effect, scored: _Scored, fit_on: tuple[str, 
     return recal, point
 
 
-def _recalibrate(calibrated: Calibrated, backend: str, box: Box, effect: Effect, scored: _Scored,
-                 fit_on: tuple[str, ...], budget: Budget, seed: int, out: Path, executor):
-    """Fit the top effect on the ``fit_on`` groups, simulate the fit, and compare on the others."""
-    recal, point = recalibration(box, effect, scored, fit_on, budget, seed)
+def judged_verdict(scored: _Scored, box: Box, effects: dict[str, Effect], fit_on: tuple[str, ...], budget: Budget,
+                   seed: int, simulate: Callable[[DesignPoint, Effect], list[dict[str, float]]] | None) -> Verdict:
+    """The verdict (:func:`calibrax.diagnosis.verdict.decide`): each candidate to confirm is
+    recalibrated on the ``fit_on`` groups, ``simulate`` gives its fresh seeds' features (the
+    DEM's, or the benchmark's truth emulator's), and the other groups judge it. ``simulate`` None:
+    no feature is held out, so nothing is confirmed and the design's ranking stands."""
+    names = scored.design.names
+    judge = tuple(n for n in names if gaps.group_of(n) not in fit_on)
+    if simulate is None or not judge:
+        return decide(scored.ranking, None, None)
     if budget.confirm < 1:
-        return recal, [], 0, 0.0
-    cases = [design_case(calibrated, backend, point, {effect.name: effect})]
-    store = study_store(out, "confirm", cases)
-    recal["store"] = store.name
-    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, "confirm", stage_progress("confirmation"),
-                         shutdown=False)
-    sims = gaps.simulated(outcomes[0].good, calibrated.spec.procedure.peak_window)
-    engine = sum(r.provenance.wall_time for r in outcomes[0].good)
-    return recal, gaps.feature_gaps(sims, scored.experiment, scored.design.names, scored.seed_sd), len(point.seeds), engine
+        return decide(scored.ranking, None, None, "the budget gives no confirmation simulations")
+    index = [names.index(n) for n in judge]
+    corr = scored.emulator.corr[np.ix_(index, index)]
+
+    def confirm(name: str) -> Confirmation:
+        recal, point = recalibration(box, effects[name], scored, fit_on, budget, seed)
+        sims = simulate(point, effects[name])
+        after = gaps.feature_gaps(sims, scored.experiment, names, scored.seed_sd)
+        return judge_confirmation(name, effects[name].label, scored.before, after, judge, corr, len(sims), recal, seed)
+
+    return decide(scored.ranking, baseline_fit(scored.design, scored.target, fit_on, seed), confirm)
+
+
+def confirm_stores(final: Verdict, stores: list[str]) -> dict[str, str]:
+    """The confirmation stores by role: ``confirm`` the named effect's (where one was named),
+    ``confirm-<effect>`` every other candidate's that was confirmed in turn."""
+    out = {}
+    for c, store in zip(final.confirmations, stores):
+        out["confirm" if final.adopted is c else f"confirm-{c.effect}"] = store
+    return out
 
 
 def write_json(path: Path, data: dict[str, Any]) -> None:

@@ -13,7 +13,7 @@ import shutil
 from pathlib import Path
 
 from calibrax.core.studies.study import StudyCase, run_study
-from calibrax.diagnosis.benchmark.cases import RollingFriction
+from calibrax.diagnosis.benchmark.cases import RollingFriction, apply_mismatch
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import Budget, DesignPoint, design_points
 from calibrax.diagnosis.run import design_case, stage_progress, study_store
@@ -41,11 +41,36 @@ def unlisted_cases(model: BenchmarkModel) -> tuple[list[DesignPoint], list[Study
     return points, [design_case(calibrated, model.simulator, p, {effect.name: effect}) for p in points]
 
 
-def run_design(model: BenchmarkModel, folder: Path, executor, unlisted: bool = False) -> tuple[Path, list]:
-    """Run (or resume) the shared design, or the unlisted block, into ``folder``; returns the
-    store and the outcomes."""
-    points, cases = unlisted_cases(model) if unlisted else shared_cases(model)
-    kind = "unlisted" if unlisted else "design"
+#: the shared design's first points (its calibrated point's replicates and this many baseline
+#: points, with their seeds) that a mismatch block runs again with the mismatched procedure
+MISMATCH_BASELINE = 4
+
+
+def mismatch_cases(model: BenchmarkModel, kind: str) -> tuple[list[DesignPoint], list[StudyCase]]:
+    """A procedure mismatch's block (:data:`~calibrax.diagnosis.benchmark.cases.MISMATCHES`): the
+    shared design's calibrated point and first baseline points with the same seeds, the same poured
+    beds, made with the mismatched procedure, so that each simulation pairs with one of the design's
+    and the mismatch's offset is measured free of most seed noise."""
+    budget = Budget(model.budget.replicates, min(MISMATCH_BASELINE, model.budget.baseline), 0, 0)
+    points = [p for p in design_points(model.box(), [], budget, model.seed) if p.seeds]
+    calibrated = model.calibrated(None)
+    cases = []
+    for p in points:
+        case = design_case(calibrated, model.simulator, p, {})
+        cases.append(StudyCase(f"{kind}: {case.label}", case.backend, apply_mismatch(case.spec, kind).validate(),
+                               case.seeds, case.coords))
+    return points, cases
+
+
+def run_design(model: BenchmarkModel, folder: Path, executor, unlisted: bool = False,
+               mismatch: str = "") -> tuple[Path, list]:
+    """Run (or resume) the shared design, the unlisted block or a mismatch's block into
+    ``folder``; returns the store and the outcomes."""
+    if mismatch:
+        points, cases = mismatch_cases(model, mismatch)
+    else:
+        points, cases = unlisted_cases(model) if unlisted else shared_cases(model)
+    kind = f"mismatch-{mismatch}" if mismatch else "unlisted" if unlisted else "design"
     folder.mkdir(parents=True, exist_ok=True)
     store = study_store(folder, kind, cases)
     outcomes = run_study(cases, store, executor, folder / "runs" / store.stem, "diagnose", stage_progress(kind),

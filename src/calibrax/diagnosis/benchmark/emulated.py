@@ -193,7 +193,7 @@ def make_case(truth: TruthEmulator, label: CaseLabel, noise: MeasurementNoise, r
 def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str, float]], rng: np.random.Generator,
                       oracle: CaseLabel | None = None, fit_on: tuple[str, ...] = gaps.DEFAULT_FIT) -> Answer:
     """Diagnose one case's replicate features with the truth emulator standing in for the simulator."""
-    from calibrax.diagnosis.run import candidate_spaces, recalibration, score_design
+    from calibrax.diagnosis.run import candidate_spaces, judged_verdict, score_design
 
     model = truth.model
     effects = model.effects()
@@ -204,25 +204,25 @@ def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str
     scored = score_design(experiment, candidate_spaces(effects, None), points, design, 0, box, effect_params, model.seed)
     names = scored.design.names
     judge = tuple(n for n in names if gaps.group_of(n) not in fit_on)
-    ranking = scored.ranking
     before = gaps.gap_size([g for g in scored.before if g.name in judge])
-    after = before
-    top = next((m for m in ranking.models if m.name != NO_EFFECT), None)
-    if ranking.verdict != NO_EFFECT and top is not None and judge:
-        effect = next(e for e in effects if e.name == top.name)
-        with _quiet():   # one log line per case and design is the progress's job here
-            _, point = recalibration(box, effect, scored, fit_on, model.budget, model.seed)
-        sims = truth.draw(point.params, point.effect_values, model.budget.confirm, rng)
-        after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd) if g.name in judge])
+
+    def simulate(point, effect) -> list[dict[str, float]]:
+        return truth.draw(point.params, point.effect_values, model.budget.confirm, rng)
+
+    with _quiet():   # one log line per case and design is the progress's job here
+        final = judged_verdict(scored, box, {e.name: e for e in effects}, fit_on, model.budget, model.seed, simulate)
+    adopted = final.adopted
+    after = adopted.gap_after if adopted else before
     oracle_after = math.nan
     if oracle is not None and oracle.effects and oracle.klass not in OTHER_CLASSES:
         sims = truth.draw(oracle.params, oracle.effects, model.budget.confirm, rng)
         oracle_after = gaps.gap_size([g for g in gaps.feature_gaps(sims, experiment, names, scored.seed_sd)
                                       if g.name in judge])
-    models = ranking.models
-    return Answer(case, ranking.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
+    models = scored.ranking.models
+    return Answer(case, final.name, tuple(m.name for m in models), {m.name: m.probability for m in models},
                   {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, before, after, oracle_after,
-                  unexplained=ranking.unexplained, held_out=len(judge))
+                  unexplained=final.unexplained, held_out=len(judge), best_candidate=final.best_candidate,
+                  tried=tuple(f"{c.effect}: {c.outcome}" for c in final.confirmations))
 
 
 @contextmanager
@@ -249,8 +249,9 @@ def run_emulated(truth: TruthEmulator, labels: list[CaseLabel], seed: int, noise
     return answers
 
 
-def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str) -> dict[str, Any]:
-    """The shipped design's data: every finished simulation's point, effects, seed and features."""
+def export_design(model: BenchmarkModel, outcomes: list, points: list, about: str, mismatch: str = "") -> dict[str, Any]:
+    """The shipped design's data: every finished simulation's point, effects, seed and features
+    (and the procedure mismatch it was made with, for a mismatch block's rows)."""
     from calibrax.core.data.features import result_features
 
     peak_window = model.spec.procedure.peak_window
@@ -258,6 +259,6 @@ def export_design(model: BenchmarkModel, outcomes: list, points: list, about: st
     for pt, out in zip(points, outcomes):
         for result in out.good:
             rows.append({"point": pt.label, "params": dict(pt.params), "effects": dict(pt.effect_values),
-                         "seed": int(result.provenance.seed),
+                         "seed": int(result.provenance.seed), **({"mismatch": mismatch} if mismatch else {}),
                          "features": gaps.diagnosis_features(result_features(result, peak_window))})
     return {"about": about, "model": model.source.name, "rows": rows}

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.benchmark.cases import CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, OTHER_CLASSES, CaseLabel
 from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
 from calibrax.errors import ConfigError
@@ -45,13 +46,12 @@ GOAL_TOP1, GOAL_FALSE_ALARMS, GOAL_SHRINKAGE, GOAL_UNLISTED = 0.8, 0.1, 0.7, 0.5
 #: the oracle's held-out shrinkage a case needs for its ratio to count: where the true effect
 #: itself explains less than a quarter of the held-out gap, that gap is noise and the ratio too
 MIN_ORACLE_SHRINKAGE = 0.25
-#: a case's ratio counts only where its held-out gap before (RMS z over k features) is beyond this
-#: quantile of what seed noise alone gives, √(χ²_k(q) / k) (:func:`noise_gap_limit`): 1.54 for the
-#: default split's four held-out features (the preshear and post-peak τ/σ, the initial slope and
-#: the peak prominence). Measured at the emulator level: of the cohesion cases the former rule
-#: counted (17 of 30), the held-out gap before was 0.5 to 1.8, the seed noise's own size, and the
-#: ratio swung from 81 % to 39 % when the shipped design's rolling-friction block alone was remade
-GAP_NOISE_QUANTILE = 0.95
+#: a case's ratio counts only where its held-out gap before (RMS z over k features) is beyond the
+#: seed noise's 95 % quantile, √(χ²_k(q) / k) (:func:`noise_gap_limit`): 1.54 for the default
+#: split's four held-out features. Measured at the emulator level: of the cohesion cases the former
+#: rule counted (17 of 30), the held-out gap before was 0.5 to 1.8, the seed noise's own size, and
+#: the ratio swung from 81 % to 39 % when the shipped design's rolling-friction block alone was remade
+GAP_NOISE_QUANTILE = gaps.GAP_NOISE_QUANTILE
 #: held-out features an answer without the count is read as having (the default split's)
 DEFAULT_HELD_OUT = 4
 #: a class needs this many counted cases for its median shrinkage ratio to be judged against the goal
@@ -81,6 +81,9 @@ class Answer:
         unexplained: what a named effect left beyond |z| = 3
             (:attr:`~calibrax.diagnosis.scoring.Ranking.unexplained`): the gap flagged as an
             effect outside the list's; empty where nothing was flagged.
+        best_candidate: the most probable candidate of the design's ranking, named or not.
+        tried: each candidate confirmed in turn and the outcome, ``"<effect>: <outcome>"``
+            (:mod:`calibrax.diagnosis.verdict`).
     """
 
     case: str
@@ -94,6 +97,8 @@ class Answer:
     recovered: dict[str, float] = field(default_factory=dict)
     unexplained: tuple[str, ...] = ()
     held_out: int = 0
+    best_candidate: str = ""
+    tried: tuple[str, ...] = ()
 
     @property
     def magnitude(self) -> dict[str, float]:
@@ -111,6 +116,7 @@ class Answer:
 
     def to_dict(self) -> dict[str, Any]:
         return {**asdict(self), "ranked": list(self.ranked), "unexplained": list(self.unexplained),
+                "tried": list(self.tried),
                 "shrinkage": self.shrinkage,
                 "oracle_shrinkage": self.oracle_shrinkage}
 
@@ -120,16 +126,12 @@ class Answer:
                    {k: dict(v) for k, v in d.get("effect_means", {}).items()}, float(d["gap_before"]),
                    float(d["gap_after"]), float(d.get("oracle_after", math.nan)),
                    {k: float(v) for k, v in d.get("recovered", {}).items()}, tuple(d.get("unexplained", ())),
-                   int(d.get("held_out", 0)))
+                   int(d.get("held_out", 0)), str(d.get("best_candidate", "")), tuple(d.get("tried", ())))
 
 
 def noise_gap_limit(held_out: int) -> float:
-    """The RMS z over ``held_out`` features that seed noise alone stays below with probability
-    :data:`GAP_NOISE_QUANTILE`: √(χ²_k(q) / k)."""
-    from scipy.stats import chi2
-
-    k = held_out if held_out > 0 else DEFAULT_HELD_OUT
-    return math.sqrt(float(chi2.ppf(GAP_NOISE_QUANTILE, k)) / k)
+    """:func:`calibrax.diagnosis.gap.noise_gap_limit` over ``held_out`` features (0: the default split's)."""
+    return gaps.noise_gap_limit(held_out if held_out > 0 else DEFAULT_HELD_OUT)
 
 
 def _shrink(before: float, after: float) -> float:
@@ -142,7 +144,8 @@ def answer_from_diagnosis(case: str, result, oracle_after: float = math.nan) -> 
     models = result.ranking.models
     return Answer(case, result.verdict, tuple(m.name for m in models), {m.name: m.probability for m in models},
                   {m.name: dict(m.effect_mean) for m in models if m.effect_mean}, result.gap_before, result.gap_after,
-                  oracle_after, _recovered(result), tuple(result.ranking.unexplained), len(result.judge_on))
+                  oracle_after, _recovered(result), tuple(result.final.unexplained), len(result.judge_on),
+                  result.final.best_candidate, tuple(f"{c.effect}: {c.outcome}" for c in result.final.confirmations))
 
 
 def _recovered(result) -> dict[str, float]:
