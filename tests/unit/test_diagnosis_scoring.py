@@ -125,6 +125,33 @@ def test_a_measured_prior_moves_the_evidence() -> None:
     assert score_model(target, emulator, wrong).log_evidence < flat.log_evidence
 
 
+def test_a_wider_prior_pays_for_its_flexibility() -> None:
+    """The marginal likelihood, not the best fit, decides (issue 48): two priors that both hold the
+    truth fit it equally well at their best, and the one four times wider loses about ln 4 of log
+    evidence (the likelihood lies inside the narrower); a log-uniform prior over two decades, which puts little weight where the data are,
+    loses more than the flat one."""
+    import math
+
+    from calibrax.diagnosis.effects import LogUniformPrior
+    from calibrax.diagnosis.scoring import Emulator, score_model
+
+    rng = np.random.default_rng(5)
+    design = synthetic_design(rng)
+    target = experiment(rng, np.zeros(2), np.array([0.5, 0.0, 0.0]))
+    emulator = Emulator.fit(design)
+
+    def space(prior: object) -> CandidateSpace:
+        return CandidateSpace("wall", "wall", ("wall",), (0.0,), (1.0,), (prior,))
+
+    flat, wide = score_model(target, emulator, space(UniformPrior(0.0, 1.0))), score_model(
+        target, emulator, space(UniformPrior(0.0, 4.0)))
+    assert wide.chi2 == pytest.approx(flat.chi2, abs=0.01), "both priors hold the best fit"
+    assert flat.log_evidence - wide.log_evidence == pytest.approx(math.log(4.0), abs=0.2)
+    log_scaled = score_model(target, emulator, space(LogUniformPrior(0.01, 1.0)))
+    assert log_scaled.log_evidence < flat.log_evidence - 0.5
+    assert LogUniformPrior(0.01, 1.0).ppf(np.array([0.0, 0.5, 1.0])) == pytest.approx([0.01, 0.1, 1.0])
+
+
 def test_the_emulator_bends_only_where_the_response_does() -> None:
     """Quadratic terms in the calibrated parameters join when left-out simulations say so."""
     from calibrax.diagnosis.scoring import Emulator

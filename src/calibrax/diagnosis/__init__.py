@@ -19,16 +19,18 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from calibrax.diagnosis.design import Budget
-    from calibrax.diagnosis.effects import Effect, EffectParameter, TruncatedNormalPrior, UniformPrior
+    from calibrax.diagnosis.effects import Effect, EffectParameter, LogUniformPrior, TruncatedNormalPrior, UniformPrior
     from calibrax.diagnosis.run import Calibrated, Diagnosis, diagnose
 
-__all__ = ["Budget", "Calibrated", "Diagnosis", "Effect", "EffectParameter", "TruncatedNormalPrior", "UniformPrior",
+__all__ = ["Budget", "Calibrated", "Diagnosis", "Effect", "EffectParameter", "LogUniformPrior", "TruncatedNormalPrior",
+           "UniformPrior",
            "diagnose", "effects_by_name"]
 
 #: the public names and their modules, imported on first use (PEP 562): every simulation process
 #: loads the effect plugins of ``calibrax.diagnosis.effects``, and the rest of the diagnosis (SciPy's
 #: statistics among it, about a second) is not needed there
-_LAZY = {"Budget": "design", "Effect": "effects", "EffectParameter": "effects", "TruncatedNormalPrior": "effects",
+_LAZY = {"Budget": "design", "Effect": "effects", "EffectParameter": "effects", "LogUniformPrior": "effects",
+         "TruncatedNormalPrior": "effects",
          "UniformPrior": "effects", "Calibrated": "run", "Diagnosis": "run", "diagnose": "run"}
 
 

@@ -91,7 +91,24 @@ class TruncatedNormalPrior:
             f" ({self.why})" if self.why else "")
 
 
-Prior = UniformPrior | TruncatedNormalPrior
+@dataclass(frozen=True)
+class LogUniformPrior:
+    """Flat in the logarithm between ``low`` > 0 and ``high`` (natural units): a scale known only to
+    its order of magnitude, each decade as likely as the next. ``why``: the range's sources."""
+
+    low: float
+    high: float
+    why: str = ""
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        """Quantile function: unit-interval samples, shape (n,), to values, shape (n,)."""
+        return self.low * (self.high / self.low) ** np.asarray(u, dtype=float)
+
+    def describe(self) -> str:
+        return f"log-uniform on [{self.low:g}, {self.high:g}]" + (f" ({self.why})" if self.why else "")
+
+
+Prior = UniformPrior | TruncatedNormalPrior | LogUniformPrior
 
 
 @runtime_checkable
@@ -128,7 +145,11 @@ class WallFriction(_Builtin):
     """Sliding friction between the particles and the vessel's lateral wall (the paper's model has a
     frictionless wall). The FT4 wall friction test measures it: a ``wall_friction_angle_deg`` in the
     experiment's header becomes the prior, tan(φ_w) ± 0.05 (the spread of repeated wall friction
-    tests), instead of a flat one over 0–0.6."""
+    tests), instead of a flat one over 0–0.6. That range holds the wall friction angles of powders
+    on steel and glass, about 5° to 30° (tan φ_w 0.09–0.58: Schulze, *Powders and Bulk Solids*,
+    Springer 2008, ch. 3.3; Freeman 2007, "Measuring the flow properties of consolidated, conditioned
+    and aerated powders", Powder Technol. 174, 25): a coefficient bounded on both sides by what is
+    measured, so flat on it, its width charged in the evidence like every prior's."""
 
     name = "wall_friction"
     label = "lateral wall friction"
@@ -176,22 +197,40 @@ class SizeDistribution(_Builtin):
 
 class Cohesion(_Builtin):
     """Interparticle cohesion as a Bond number: the pull-off force of two particles over the mean
-    contact force at the preshear stress (:mod:`calibrax.core.sheartest.cohesion`), uniform on 0–2;
-    each backend converts it to its own cohesion parameter (numba_dem and LIGGGHTS: the SJKR energy
-    density k at the calibrated E, ν and radius).
+    contact force at the preshear stress (:mod:`calibrax.core.sheartest.cohesion`); each backend
+    converts it to its own cohesion parameter (numba_dem and LIGGGHTS: the SJKR energy density k at
+    the calibrated E, ν and radius). The design explores 0–2; the prior is log-uniform on
+    ``BOND_RANGE``, 0.01–2, because what a powder's Bond number can be is known to its order of
+    magnitude only, and a flat prior up to 2 would give the cohesive decade 90 % of the weight and
+    let cohesion absorb a misfit of any kind (issue 48).
 
-    The range spans free-flowing to very cohesive powders as the test sees them: the Bond number
-    at the shear steps' 6–9 kPa is 1.7–2.5 times the preshear's, so Bo = 2 is a pull-off force five
-    times the mean contact force at 6 kPa; sphere packings begin to shear differently near Bo = 1
-    (Singh, Magnanimo, Saitoh and Luding, 2014, "Effect of cohesion on shear banding in
-    quasistatic granular materials", Phys. Rev. E 90, 022202) and flow freely below about 0.1.
-    The former range, SJKR k up to 3·10⁷ J/m³, reached only Bo ≈ 0.012–0.02 at E = 20–25 GPa,
-    which no feature of the test could see."""
+    The range, at the preshear's 15 kPa, where the mean contact force is about σ d² (Rumpf's
+    estimate, within a factor 2 for random packings): 8·10⁻⁵ N at d = 75 µm, 1.5·10⁻⁶ N at 10 µm.
+
+    * **Van der Waals**, F = A R / (12 z₀²) with A ≈ 10⁻¹⁹ J and z₀ ≈ 0.4 nm (Israelachvili,
+      *Intermolecular and Surface Forces*, 3rd ed. 2011, ch. 13; Seville, Willett and Knight 2000,
+      "Interparticle forces in fluidisation: a review", Powder Technol. 113, 261): 2·10⁻⁶ N at
+      75 µm, 3·10⁻⁷ N at 10 µm, so Bo ≈ 0.02 to 0.2 for smooth spheres, and 10–100 times less with
+      the asperities real particles have (Castellanos 2005, Adv. Phys. 54, 263): the range's low
+      end, where no feature of the test sees cohesion (the former SJKR range reached Bo 0.012–0.02
+      and changed nothing measurable).
+    * **Liquid bridges** at high humidity, F ≈ 2πγR with γ = 0.072 N/m (Seville et al. 2000):
+      1.7·10⁻⁵ N at 75 µm, 2.3·10⁻⁶ N at 10 µm, so Bo ≈ 0.2 to 1.5: the range's high end.
+    * Sphere packings shear differently from about Bo = 1 (Singh, Magnanimo, Saitoh and Luding
+      2014, "Effect of cohesion on shear banding in quasistatic granular materials", Phys. Rev. E 90,
+      022202); the shear steps' 6–9 kPa raise the Bond number 1.7–2.5 times over the preshear's.
+    """
 
     name = "cohesion"
     label = "cohesion"
     capability = "cohesion"
     parameters = (EffectParameter("bond_number", "material.bond_number", 0.0, 2.0),)
+    #: the prior's range of the Bond number at the preshear stress (see the class docstring)
+    BOND_RANGE = (0.01, 2.0)
+
+    def prior(self, experiment: "Experiment") -> dict[str, Prior]:
+        low, high = self.BOND_RANGE
+        return {"bond_number": LogUniformPrior(low, high, "van der Waals to liquid bridges, 10–75 µm, at 15 kPa")}
 
     def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
         return spec.replace(material={"bond_number": float(values["bond_number"]), "cohesion_energy_density": 0.0})

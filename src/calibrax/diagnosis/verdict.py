@@ -278,7 +278,8 @@ def decide(ranking: Ranking, baseline: BaselineFit | None, confirm: Callable[[st
             if result.gap_left:
                 left += (f"the held-out features (RMS z {result.gap_after:.2f} after, beyond the noise's "
                          f"{result.limit:.2f})",)
-            words = (f"{model.label} (p = {model.probability:.2f}): {baseline.words()}; {result.words()}"
+            words = (f"{model.label} explains the gap (p = {model.probability:.2f}, confirmed): {baseline.words()}; "
+                     f"{result.words()}"
                      + (f"; it leaves {', '.join(left)}: an effect outside the candidates acts beside it" if left else ""))
             if len(done) > 1:
                 words += "; before it, " + "; ".join(c.words() for c in done[:-1])

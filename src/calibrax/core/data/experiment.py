@@ -31,7 +31,9 @@ Files (all UTF-8, lines starting with ``#`` are comments — use them to say whe
       preshear_stress_pa: 15000       # optional
       bulk_density_kg_m3: 1470        # optional: one density for every replicate (else the column)
       wall_friction_angle_deg: 11.5   # optional: the FT4 wall friction test against the vessel's material
-      cell: {preset: tiny}            # optional: the cell it was measured in, for the record
+      cell: {preset: tiny}            # optional: the cell it was measured in, for the record; a
+                                      # pseudo-experiment pins it (cellpin.cell_pin), and a preset
+                                      # that no longer resolves the same is warned of on loading
       material: {sliding_friction: 0.35, youngs_modulus: 2.0e10}   # optional: known material values;
                                       # a pseudo-experiment's are its truth, which the report marks
 """
@@ -41,12 +43,14 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from calibrax.core.data.cellpin import stale_fields
 from calibrax.core.yamlfile import read_yaml
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import ExperimentError
@@ -56,6 +60,8 @@ OPTIONAL_POINT_COLUMNS = ("measured_normal_stress_pa", "preshear_normal_stress_p
                           "bulk_density_kg_m3", "conditioned_bulk_density_kg_m3")
 COMPRESSIBILITY_COLUMNS = ("replicate", "normal_stress_pa", "compressibility_percent")
 CURVE_COLUMNS = ("replicate", "normal_stress_pa", "rotation_rad", "shear_stress_pa")
+log = logging.getLogger("calibrax")
+
 HEADER_KEYS = {"name", "source", "points", "curves", "preshear_stress_pa", "material", "cell", "bulk_density_kg_m3",
                "wall_friction_angle_deg", "compressibility", "conditioned_bulk_density_kg_m3"}
 
@@ -87,6 +93,8 @@ class Experiment:
             kg/m³ (NaN where not measured).
         compressibility: {replicate: (normal stresses, Pa, increasing, shape (m,); the FT4's
             compressibility at each, % of the conditioned volume, shape (m,))}.
+        stale_cell: where the header pins the cell that made the data and its preset no longer
+            resolves the same, one line per changed field (:func:`calibrax.core.data.cellpin.stale_fields`).
     """
 
     name: str
@@ -106,6 +114,7 @@ class Experiment:
     material: dict[str, float] = field(default_factory=dict)
     conditioned_bulk_density: np.ndarray | None = None
     compressibility: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    stale_cell: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal_stress).size
@@ -329,13 +338,19 @@ def load_experiment(path: str | Path) -> Experiment:
             isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
             for k, v in material.items()):
         raise ExperimentError(f"{path}: material", f"must map material fields to numbers, got {material!r}")
+    cell = header.get("cell") or {}
+    if not isinstance(cell, dict):
+        raise ExperimentError(f"{path}: cell", f"must be a mapping (e.g. {{preset: tiny}}), got {cell!r}")
+    stale = tuple(stale_fields(cell))
+    for line in stale:
+        log.warning("%s was made with a cell that no longer resolves the same: %s", path, line)
     source = str(header.get("source") or exp.source)
     extra = tuple(str(path.parent / header[key]) for key in ("curves", "compressibility") if header.get(key))
     files = exp.files + extra + (str(path),)
     return dataclasses.replace(exp, preshear_stress=float(pre), curves=curves, source=source, files=files,
                                bulk_density=density, wall_friction_angle_deg=wall_angle,
                                conditioned_bulk_density=conditioned, compressibility=compressibility,
-                               material={k: float(v) for k, v in material.items()})
+                               material={k: float(v) for k, v in material.items()}, stale_cell=stale)
 
 
 def _positive_number(path: Path, header: dict, key: str) -> float:

@@ -19,6 +19,7 @@ from typing import Callable
 
 import yaml
 
+from calibrax.core.data.cellpin import cell_pin
 from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.errors import ConfigError
@@ -90,8 +91,8 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
         f"Replicates are seeds {seeds} of the same spec.",
     ]
     header = {"preshear_stress_pa": float(spec.procedure.preshear_stress),
-              "cell": {"preset": spec.name, "base_ribs": g.base_ribs, "rib_height": g.rib_height,
-                       "wall_friction": g.wall_friction},
+              "cell": {"base_ribs": g.base_ribs, "rib_height": g.rib_height, "wall_friction": g.wall_friction,
+                       **cell_pin(spec)},
               "material": {k: float(v) for k, v in sorted(vars(spec.material).items())}}
     return write_experiment(results, out, provenance, header)
 

@@ -1,0 +1,115 @@
+"""The verdict names a candidate only where its own confirmation bears it out (issue 48).
+
+Rankings, baselines and gaps are constructed by hand here; the confirmation callback is a test
+double standing in for the recalibration and its simulations (the integration tests run them)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from calibrax.diagnosis import gap as gaps
+from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM, ModelScore, Ranking
+from calibrax.diagnosis.verdict import (CONFIRMED, NOT_SHRUNK, WORSE, BaselineFit, Confirmation, decide,
+                                        judge_confirmation)
+
+HELD = ("density_a", "density_b", "density_c")
+
+
+def _model(name: str, log_evidence: float, probability: float) -> ModelScore:
+    return ModelScore(name, name.replace("_", " ").capitalize(), log_evidence, probability, np.zeros(2), {}, {}, {},
+                      np.zeros(4))
+
+
+def _ranking(top: str = "cohesion", factor: float = 100.0) -> Ranking:
+    """A ranking whose design fit strongly prefers ``top`` (Bayes factor ``factor`` against no effect)."""
+    models = [_model(top, math.log(factor), 0.95), _model("wall_friction", 1.5, 0.04), _model(NO_EFFECT, 0.0, 0.01)]
+    return Ranking(models, top, f"{top} explains the gap (p = 0.95)", ("tau_9", "tau_8", "tau_7", "tau_6"))
+
+
+def _baseline(z: list[float], chi2: float, dof: int = 2) -> BaselineFit:
+    return BaselineFit(("tau_9", "tau_8", "tau_7", "tau_6"), chi2, dof, np.array(z))
+
+
+MISFITS = _baseline([0.5, 4.2, -1.0, 0.3], chi2=25.0)
+FITS = _baseline([0.5, 1.2, -1.0, 0.3], chi2=2.9)
+
+
+def _gap(name: str, sim_mean: float, n_sim: int = 3) -> gaps.FeatureGap:
+    """A held-out feature whose experiment sits at 0 with s.d. 1 over 3 replicates (the simulation's too)."""
+    return gaps.FeatureGap(name, "density", 0.0, 1.0, 3, sim_mean, 1.0, n_sim)
+
+
+def _judge(before: float, after: float, effect: str = "cohesion") -> Confirmation:
+    """Judge a confirmation where every held-out feature's mean moves from ``before`` to ``after``
+    (in units of the s.d. of one replicate)."""
+    b = [_gap(n, before) for n in HELD]
+    a = [_gap(n, after) for n in HELD]
+    return judge_confirmation(effect, effect.replace("_", " ").capitalize(), b, a, HELD, np.eye(3), 3, {})
+
+
+def test_baseline_fit_reads_its_misfit_from_z_and_chi2():
+    assert MISFITS.misfits and MISFITS.beyond == ("tau_8",)
+    assert not FITS.misfits and FITS.p_value > 0.01
+    assert _baseline([0.1, 0.2, 0.3, 0.4], chi2=14.0).misfits, "a joint χ² beyond p = 0.01 misfits without any |z| > 3"
+
+
+@pytest.mark.parametrize("before, after, outcome", [
+    (3.0, 0.2, CONFIRMED),    # a gap beyond the noise brought into it
+    (0.3, 0.4, CONFIRMED),    # a small case kept inside the noise
+    (1.0, 3.5, WORSE),        # the recalibration opened a gap: its own confirmation refutes it
+    (3.0, 3.2, NOT_SHRUNK),   # a gap left beyond the noise without shrinking
+])
+def test_judge_confirmation_against_the_noise_of_the_comparison(before, after, outcome):
+    c = _judge(before, after)
+    assert c.outcome == outcome, c.words()
+    assert c.null_low < c.null_high
+    assert c.label in c.words()
+
+
+def test_a_confirmation_that_makes_the_held_out_gap_worse_withdraws_the_verdict():
+    tried: list[str] = []
+
+    def confirm_double(effect: str) -> Confirmation:
+        tried.append(effect)
+        return _judge(1.0, 3.5, effect)
+
+    v = decide(_ranking("cohesion"), MISFITS, confirm_double)
+    assert v.name == NONE_OF_THEM and v.adopted is None
+    assert tried == ["cohesion", "wall_friction"], "the runner-up, worth a Bayes factor ≥ 3, is tried in turn"
+    assert all(c.outcome == WORSE for c in v.confirmations)
+    assert v.best_candidate == "cohesion"
+    assert "refutes" in v.reason and "Cohesion" in v.reason
+
+
+def test_the_runner_up_is_named_where_its_confirmation_holds_and_the_top_one_fails():
+    def confirm_double(effect: str) -> Confirmation:
+        return _judge(3.0, 3.5 if effect == "cohesion" else 0.3, effect)
+
+    v = decide(_ranking("cohesion"), MISFITS, confirm_double)
+    assert v.name == "wall_friction" and v.adopted is not None and v.adopted.effect == "wall_friction"
+    assert "explains the gap" in v.reason and "before it" in v.reason
+
+
+@pytest.mark.parametrize("factor", [10.0, 1e6])
+def test_a_baseline_inside_the_noise_gives_none_whatever_the_posterior(factor):
+    def confirm_double(effect: str) -> Confirmation:
+        raise AssertionError("nothing is confirmed when there is no gap to explain")
+
+    v = decide(_ranking("cohesion", factor), FITS, confirm_double)
+    assert v.name == NO_EFFECT and not v.confirmations
+    assert "within the noise" in v.reason and "only explain noise" in v.reason
+
+
+def test_a_misfit_no_candidate_is_worth_trying_is_none_of_the_candidates():
+    models = [_model(NO_EFFECT, 0.0, 0.6), _model("cohesion", -0.5, 0.4)]
+    ranking = Ranking(models, NO_EFFECT, "no effect: the gap is within the noise")
+    v = decide(ranking, MISFITS, lambda effect: pytest.fail("no candidate reaches the Bayes factor to be tried"))
+    assert v.name == NONE_OF_THEM and v.best_candidate == "cohesion"
+
+
+def test_without_held_out_features_the_ranking_stands_and_says_it_is_unconfirmed():
+    v = decide(_ranking("cohesion"), MISFITS, None)
+    assert v.name == "cohesion" and "unconfirmed" in v.reason
