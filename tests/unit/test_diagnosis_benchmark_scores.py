@@ -150,3 +150,31 @@ def test_a_bad_labels_file_is_named(tmp_path, text, words):
     with pytest.raises(ConfigError, match=words) as err:
         read_labels(path)
     assert str(path) in str(err.value)
+
+
+def test_mismatch_cases_are_scored_apart_per_kind_and_together():
+    """Issue 48: a mismatch alone is a false alarm where a listed effect is named; "none of the
+    candidates" counts over the cases beyond the noise, "none" over those inside it; a listed
+    effect on top of a mismatch should still be named."""
+    def mm(case, kind, expected, klass="mismatch", effects=None):
+        return CaseLabel(case, klass, expected, kind, "test", {}, effects or {}, kind)
+
+    labels = [mm("p1", "fixed_preshear", NONE_OF), mm("p2", "fixed_preshear", NONE_OF),
+              mm("p3", "fixed_preshear", "none"), mm("s1", "slow_rate", "none"), mm("s2", "slow_rate", "none"),
+              mm("l1", "fixed_preshear", "wall_friction", "mismatch+listed", {"wall_friction": 0.45}),
+              mm("l2", "slow_rate", "cohesion", "mismatch+listed", {"bond_number": 1.5})]
+    answers = [_answer("p1", NONE_OF, ["cohesion", "none"]), _answer("p2", "cohesion", ["cohesion", "none"]),
+               _answer("p3", "none", ["none"]), _answer("s1", "none", ["none"]), _answer("s2", NONE_OF, ["none"]),
+               _answer("l1", "wall_friction", ["wall_friction"]), _answer("l2", NONE_OF, ["cohesion"])]
+    s = score(labels, answers)
+    assert s.mismatch["fixed_preshear"]["false alarms"] == (pytest.approx(1 / 3), 3)
+    assert s.mismatch["fixed_preshear"]["none of the candidates (beyond)"] == (0.5, 2)
+    assert s.mismatch["slow_rate"]["none (inside)"] == (0.5, 2)
+    assert s.mismatch["all"]["false alarms"] == (0.2, 5)
+    assert s.mismatch["all"]["listed named"] == (0.5, 2)
+    assert math.isnan(s.false_alarms), "the mismatch cases are not the controls"
+    goals = dict(s.goals())
+    assert goals["mismatch false alarms ≤ 10%"] is False
+    assert goals["a mismatch beyond the noise answered \"none of the candidates\" ≥ 70%"] is False
+    text = table(s)
+    assert "mismatch, fixed preshear: beyond the noise" in text and "| mismatch | " in text

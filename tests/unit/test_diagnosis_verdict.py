@@ -113,3 +113,14 @@ def test_a_misfit_no_candidate_is_worth_trying_is_none_of_the_candidates():
 def test_without_held_out_features_the_ranking_stands_and_says_it_is_unconfirmed():
     v = decide(_ranking("cohesion"), MISFITS, None)
     assert v.name == "cohesion" and "unconfirmed" in v.reason
+
+
+def test_a_gap_only_the_held_out_features_show_is_still_a_gap():
+    """A campaign calibrated on the locus, diagnosed with the locus as the fit features: the locus
+    fits by construction, the density does not; the baseline test sees it on every feature."""
+    from calibrax.diagnosis.verdict import BaselineTest
+
+    every = BaselineFit(FITS.features + ("bulk_density",), 47.0, 3, np.array([0.5, 1.2, -1.0, 0.3, 6.7]))
+    test = BaselineTest(FITS, every)
+    assert test.misfits and "bulk_density beyond |z| = 3" in test.words()
+    assert not BaselineTest(FITS, FITS).misfits

@@ -33,7 +33,11 @@ class Budget:
         replicates: seeds at the calibrated point (the "before" of the gap).
         baseline: further points without any effect, spread over the box.
         per_effect: points per candidate effect.
-        confirm: seeds at the recalibrated point with the top effect (the "after").
+        confirm: seeds at the recalibrated point with the top effect (the "after"); where its
+            confirmation refutes it, the runner-up is confirmed with as many more
+            (:data:`calibrax.diagnosis.verdict.MAX_TRIED` candidates at most), so a diagnosis
+            runs :meth:`total` simulations when the top candidate holds and up to ``confirm``
+            more otherwise.
     """
 
     replicates: int = 4

@@ -45,7 +45,8 @@ from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, desig
 from calibrax.diagnosis.effects import Effect, EffectParameter
 from calibrax.diagnosis.scoring import (CandidateSpace, Design, Emulator, Ranking, Target, rank,
                                         score_model)
-from calibrax.diagnosis.verdict import Confirmation, Verdict, baseline_fit, decide, judge_confirmation
+from calibrax.diagnosis.verdict import (MAX_TRIED, Confirmation, Verdict, baseline_test, decide,
+                                        judge_confirmation)
 from calibrax.errors import CalibraxError, ConfigError, DiagnosisError
 
 log = logging.getLogger("calibrax")
@@ -289,9 +290,10 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
     cases = [design_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then up to %d to confirm the "
-             "recalibration if an effect is named", len(effects), ", ".join(e.name for e in effects), backend,
-             sum(len(p.seeds) for p in points), budget.confirm)
+    log.info("diagnose: %d candidate effects (%s) on %s: a design of %d simulations, then up to %d to confirm each "
+             "candidate's recalibration where the baseline misfits (up to %d candidates, the next only where the "
+             "one before is refuted)", len(effects), ", ".join(e.name for e in effects), backend,
+             sum(len(p.seeds) for p in points), budget.confirm, MAX_TRIED)
     try:
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
@@ -452,7 +454,7 @@ def judged_verdict(scored: _Scored, box: Box, effects: dict[str, Effect], fit_on
         after = gaps.feature_gaps(sims, scored.experiment, names, scored.seed_sd)
         return judge_confirmation(name, effects[name].label, scored.before, after, judge, corr, len(sims), recal, seed)
 
-    return decide(scored.ranking, baseline_fit(scored.design, scored.target, fit_on, seed), confirm)
+    return decide(scored.ranking, baseline_test(scored.design, scored.target, fit_on, seed), confirm)
 
 
 def confirm_stores(final: Verdict, stores: list[str]) -> dict[str, str]:

@@ -2,12 +2,18 @@
 
 The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict disposes:
 
-1. **Is there a gap to explain?** The model without any effect, its calibrated parameters refitted
-   on the features a recalibration is fitted on (the ``fit_on`` groups), is tested against the
-   noise on those features (:func:`baseline_fit`): its best fit's joint misfit rᵀΣ⁻¹r against χ² on
-   (features − calibrated parameters) degrees of freedom at ``BASELINE_ADEQUACY``, and no feature
-   beyond |z| = 3. Where it fits within the noise, the answer is "none" whatever the posterior
-   says: a candidate that improves on a fit that was already good explains noise.
+1. **Is there a gap to explain?** The model without any effect, its calibrated parameters refitted,
+   is tested against the noise (:func:`baseline_fit`): its best fit's joint misfit rᵀΣ⁻¹r against
+   χ² on (features − calibrated parameters) degrees of freedom at ``BASELINE_ADEQUACY``, and no
+   feature beyond |z| = 3; once on the features a recalibration is fitted on (the ``fit_on``
+   groups), once on every feature of the design (:func:`baseline_test`). Where both fit within
+   the noise, the answer is "none" whatever the posterior says: a candidate that improves on a fit
+   that was already good explains noise. (Issue 48 asked for the fit features alone; but where a
+   campaign was calibrated on the locus and the diagnosis fits on the locus too, the locus fits by
+   construction and the gap shows only in the held-out density: refusing it there would answer
+   "none" to a density 6 standard errors off. The confirmation still judges on the held-out
+   features alone, with fresh seeds, so the held-out gap is never both the evidence and the judge
+   of one recalibration.)
 2. **Does the candidate earn its name?** The top candidate (then the runner-up, up to
    ``MAX_TRIED``, each with a Bayes factor of at least 3 against no effect) is recalibrated on the
    fit features and simulated with fresh seeds; the held-out features judge it
@@ -81,16 +87,44 @@ class BaselineFit:
         """Whether the baseline misfits the fit features beyond the noise."""
         return bool(self.beyond) or self.p_value < BASELINE_ADEQUACY
 
-    def words(self) -> str:
-        what = (f"{', '.join(self.beyond)} beyond |z| = {IMPLAUSIBLE_Z:g}" if self.beyond
+    def detail(self) -> str:
+        return (f"{', '.join(self.beyond)} beyond |z| = {IMPLAUSIBLE_Z:g}" if self.beyond
                 else f"χ² {self.chi2:.1f} on {self.dof} degrees of freedom, p = {self.p_value:.2g}")
+
+    def words(self) -> str:
         return (f"the model without any effect, refitted, {'misfits' if self.misfits else 'fits'} the fit features "
-                f"({', '.join(self.features)}) {'beyond' if self.misfits else 'within'} the noise ({what})")
+                f"({', '.join(self.features)}) {'beyond' if self.misfits else 'within'} the noise ({self.detail()})")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"features": list(self.features), "chi2": self.chi2, "dof": self.dof, "p": self.p_value,
+                "misfits": self.misfits, "beyond": list(self.beyond)}
 
 
-def baseline_fit(design: Design, target: Target, fit_on: tuple[str, ...], seed: int = 0) -> BaselineFit:
-    """Refit the model without any effect on the ``fit_on`` groups' features (see the module docstring)."""
-    keep = [j for j, n in enumerate(design.names) if gaps.group_of(n) in fit_on]
+@dataclass(frozen=True)
+class BaselineTest:
+    """The model without any effect refitted twice (see the module docstring): on the fit features
+    and on every feature; it misfits where either does."""
+
+    fit: BaselineFit
+    every: BaselineFit
+
+    @property
+    def misfits(self) -> bool:
+        return self.fit.misfits or self.every.misfits
+
+    def words(self) -> str:
+        if self.fit.misfits or self.every.features == self.fit.features:
+            return self.fit.words()
+        how = "but misfits every feature together beyond it" if self.every.misfits else "and every feature too"
+        return f"{self.fit.words()}, {how} ({self.every.detail()})"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"misfits": self.misfits, "fit_features": self.fit.to_dict(), "every_feature": self.every.to_dict()}
+
+
+def baseline_fit(design: Design, target: Target, groups: tuple[str, ...] | None, seed: int = 0) -> BaselineFit:
+    """Refit the model without any effect on the ``groups``' features (None: every feature)."""
+    keep = [j for j, n in enumerate(design.names) if groups is None or gaps.group_of(n) in groups]
     names = tuple(design.names[j] for j in keep)
     sub = Design(design.unit, design.effects, design.effect_columns, design.features[:, keep], names)
     fit = score_model(Target(target.mean[keep], target.sd[keep], target.n), Emulator.fit(sub), None, seed)
@@ -211,7 +245,7 @@ class Verdict:
     Attributes:
         name: the confirmed effect's name, ``none`` or ``none of the candidates``.
         reason: the answer in words, with what the confirmation showed.
-        baseline: the model without any effect on the fit features.
+        baseline: the model without any effect refitted (:class:`BaselineTest`).
         confirmations: every candidate confirmed in turn (empty where none was tried).
         unexplained: what a confirmed candidate leaves (the design's features beyond |z| = 3 at its
             best fit, or the held-out gap left beyond the noise); empty otherwise.
@@ -220,7 +254,7 @@ class Verdict:
 
     name: str
     reason: str
-    baseline: BaselineFit | None
+    baseline: BaselineFit | BaselineTest | None
     confirmations: tuple[Confirmation, ...] = ()
     unexplained: tuple[str, ...] = ()
     best_candidate: str = ""
@@ -231,12 +265,15 @@ class Verdict:
         return next((c for c in self.confirmations if c.confirmed and c.effect == self.name), None)
 
     def to_dict(self) -> dict[str, Any]:
-        b = self.baseline
         return {"verdict": self.name, "reason": self.reason, "unexplained": list(self.unexplained),
                 "best_candidate": self.best_candidate,
-                "baseline": ({"features": list(b.features), "chi2": b.chi2, "dof": b.dof, "p": b.p_value,
-                              "misfits": b.misfits, "beyond": list(b.beyond)} if b else None),
+                "baseline": self.baseline.to_dict() if self.baseline else None,
                 "confirmations": [c.to_dict() for c in self.confirmations]}
+
+
+def baseline_test(design: Design, target: Target, fit_on: tuple[str, ...], seed: int = 0) -> BaselineTest:
+    """The baseline refitted on the ``fit_on`` groups' features and on every feature."""
+    return BaselineTest(baseline_fit(design, target, fit_on, seed), baseline_fit(design, target, None, seed))
 
 
 def candidates_to_confirm(ranking: Ranking) -> list[ModelScore]:
@@ -248,7 +285,7 @@ def candidates_to_confirm(ranking: Ranking) -> list[ModelScore]:
     return out[:MAX_TRIED]
 
 
-def decide(ranking: Ranking, baseline: BaselineFit | None, confirm: Callable[[str], Confirmation] | None,
+def decide(ranking: Ranking, baseline: BaselineFit | BaselineTest | None, confirm: Callable[[str], Confirmation] | None,
            unconfirmed: str = "no feature is held out to confirm it on") -> Verdict:
     """The verdict (see the module docstring) from the design's ranking, the baseline on the fit
     features and ``confirm``, which recalibrates, simulates and judges one candidate by name.

@@ -236,8 +236,11 @@ def _factor(rng: np.random.Generator, sd: float) -> float:
 
 
 def cell_words(spec) -> dict[str, Any]:
-    """What a blinded header says of the cell: its preset, base and preshear σ (not its walls'
+    """What a blinded header says of the cell: its preset, base and preshear σ, and the cell pinned
+    as it resolved (:func:`calibrax.core.data.cellpin.cell_pin`: no effect's value, not its walls'
     friction: that is one of the answers)."""
+    from calibrax.core.data.cellpin import cell_pin
+
     g = spec.geometry
-    return {"preset": spec.name, "base_ribs": int(g.base_ribs), "rib_height": float(g.rib_height),
-            "preshear_stress_pa": float(spec.procedure.preshear_stress)}
+    return {"base_ribs": int(g.base_ribs), "rib_height": float(g.rib_height),
+            "preshear_stress_pa": float(spec.procedure.preshear_stress), **cell_pin(spec)}

@@ -129,7 +129,7 @@ def _emulator_level(bench, design, per_class, cases, given, seed, out):
             found.append(em.diagnose_emulated(truth, label.case, experiments[label.case], rng, oracle=label))
             progress(i + 1, len(given))
         return found, given, f"emulator level, external cases in {cases}", ""
-    labels = em.plan_emulated(bench, per_class, seed)
+    labels = em.plan_emulated(bench, per_class, seed, truth)
     out.mkdir(parents=True, exist_ok=True)
     write_labels(labels, out / "labels.yaml")
     found = em.run_emulated(truth, labels, seed, progress=progress)

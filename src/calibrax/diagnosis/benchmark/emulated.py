@@ -25,20 +25,21 @@ import json
 import logging
 import math
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES,
+from calibrax.diagnosis.benchmark.cases import (CLASS_MISMATCH, CLASS_MISMATCH_LISTED, CLASS_MIXED, CLASS_NONE,
+                                                CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES,
                                                 ROLLING_FRICTION_TRUTH, CaseLabel, MeasurementNoise, RollingFriction,
                                                 expected_answer, listed_and_unlisted, opaque_ids)
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.benchmark.scores import Answer
 from calibrax.diagnosis.effects import EffectParameter
-from calibrax.diagnosis.scoring import NO_EFFECT
+from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
 from calibrax.errors import ConfigError
 
 DEFAULT_DESIGN = Path(__file__).parent / "data" / "design-tiny.json"
@@ -81,11 +82,15 @@ class TruthEmulator:
     plain_cov: np.ndarray | None = None   # (F, F) the same over the rows without any effect (the seed noise
                                           # at the model's point; the effects' lack of fit left out)
     features: tuple[str, ...] = FEATURES  # the F features: those of FEATURES that every row of the design has
+    #: each procedure mismatch's offset of the features' means, shape (F,) (see :meth:`fit`)
+    mismatch: dict[str, np.ndarray] = field(default_factory=dict)
 
     @classmethod
     def fit(cls, model: BenchmarkModel, rows: list[dict[str, Any]], unlisted: bool = True) -> "TruthEmulator":
         """Fit to a design's rows; ``unlisted``: they include the rolling-friction block and every
         registered effect (the benchmark's design), else only the model's candidates (a diagnosis design)."""
+        mismatched = [r for r in rows if r.get("mismatch")]
+        rows = [r for r in rows if not r.get("mismatch")]
         params = effect_parameters(model, unlisted)
         columns = tuple(params)
         unvaried = [c for c in columns if not any(abs(r["effects"].get(c, params[c].off) - params[c].off) > 0
@@ -110,7 +115,8 @@ class TruthEmulator:
         plain = ~np.any(g[full] != 0.0, axis=1)
         plain_cov = (resid[plain].T @ resid[plain] / plain.sum() * full.sum() / dof
                      if plain.sum() >= PLAIN_ROWS_MIN else None)
-        return cls(model, columns, params, coef, cov, len(rows), plain_cov, features)
+        return cls(model, columns, params, coef, cov, len(rows), plain_cov, features,
+                   mismatch_offsets(rows, mismatched, features))
 
     @staticmethod
     def _inputs(model, params, columns, natural: list[dict[str, float]], effects: list[dict[str, float]]):
@@ -119,15 +125,77 @@ class TruthEmulator:
         g = np.array([[float(params[c].scaled(e[c])) if c in e else 0.0 for c in columns] for e in effects], dtype=float)
         return u, g.reshape(len(effects), len(columns))
 
-    def mean(self, params: dict[str, float], effects: dict[str, float]) -> np.ndarray:
+    def mean(self, params: dict[str, float], effects: dict[str, float], mismatch: str = "") -> np.ndarray:
+        """The features' mean at a point, shape (F,), made with the procedure mismatch ``mismatch``
+        (:data:`~calibrax.diagnosis.benchmark.cases.MISMATCHES`; ``""``: the model's procedure)."""
         u, g = self._inputs(self.model, self.params, self.columns, [params], [effects])
-        return (_basis(u, g) @ self.coef)[0]
+        out = (_basis(u, g) @ self.coef)[0]
+        if mismatch:
+            if mismatch not in self.mismatch:
+                raise ConfigError("--design", f"the design has no block of the mismatch {mismatch!r}; remake it "
+                                  "(python benchmarks/diagnosis.py make-mismatch)")
+            out = out + self.mismatch[mismatch]
+        return out
 
     def draw(self, params: dict[str, float], effects: dict[str, float], n: int,
-             rng: np.random.Generator) -> list[dict[str, float]]:
-        """``n`` simulated tests' features at a point."""
-        values = rng.multivariate_normal(self.mean(params, effects), self.cov, size=n, method="eigh")
+             rng: np.random.Generator, mismatch: str = "") -> list[dict[str, float]]:
+        """``n`` simulated tests' features at a point (made with the procedure ``mismatch``)."""
+        values = rng.multivariate_normal(self.mean(params, effects, mismatch), self.cov, size=n, method="eigh")
         return [dict(zip(self.features, map(float, v))) for v in values]
+
+    def mismatch_beyond_noise(self, kind: str, params: dict[str, float], replicates: int, n_sim: int,
+                              fit_on: tuple[str, ...] = gaps.DEFAULT_FIT) -> tuple[bool, float, float]:
+        """Whether the mismatch ``kind`` at ``params`` is beyond the noise as the verdict's baseline
+        test sees it (:class:`~calibrax.diagnosis.verdict.BaselineFit`), free of noise: the model's
+        procedure, its calibrated parameters refitted over the box, against the mismatched means on
+        the ``fit_on`` features, each scaled by the standard error of ``replicates`` tests against
+        ``n_sim`` simulations; beyond where a feature's |z| exceeds 3 or the noncentral χ²'s mean
+        (dof + λ) exceeds the χ² quantile the baseline test rejects at. Returns (beyond, the
+        largest |z|, λ) at that refit."""
+        from scipy.optimize import minimize
+        from scipy.stats import chi2
+
+        from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z
+        from calibrax.diagnosis.verdict import BASELINE_ADEQUACY
+
+        keep = [j for j, n in enumerate(self.features) if gaps.group_of(n) in fit_on]
+        target = self.mean(params, {}, kind)[keep]
+        se = np.sqrt(np.diag(self.cov)[keep] * (1.0 / replicates + 1.0 / n_sim))
+        corr = self.cov[np.ix_(keep, keep)] / np.outer(se, se) * (1.0 / replicates + 1.0 / n_sim)
+        box = self.model.box()
+        names = box.space.names
+
+        def z_at(u: np.ndarray) -> np.ndarray:
+            natural = box.natural(np.clip(u, -1.0, 1.0)[None])[0]
+            return (self.mean(dict(zip(names, natural)), {})[keep] - target) / se
+
+        def lam(u: np.ndarray) -> float:
+            z = z_at(u)
+            return float(z @ np.linalg.solve(corr, z))
+
+        start = box.scaled(np.array([[params[n] for n in names]]))[0]
+        best = minimize(lam, start, method="L-BFGS-B", bounds=[(-1.0, 1.0)] * len(names))
+        z, noncentral = z_at(best.x), float(best.fun)
+        dof = max(len(keep) - len(names), 1)
+        beyond = bool(np.max(np.abs(z)) > IMPLAUSIBLE_Z or dof + noncentral > chi2.isf(BASELINE_ADEQUACY, dof))
+        return beyond, float(np.max(np.abs(z))), noncentral
+
+
+def mismatch_offsets(rows: list[dict[str, Any]], mismatched: list[dict[str, Any]],
+                     features: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Each procedure mismatch's offset of the features' means, shape (F,): the mean difference of
+    its rows from the design's rows of the same point and seed (the same poured bed, so the pairs
+    share part of their seed noise). A constant offset over the box: the blocks run the calibrated
+    point and a few baseline points only, too few for a slope."""
+    by_key = {(r["point"], int(r["seed"])): r for r in rows}
+    out: dict[str, np.ndarray] = {}
+    for kind in sorted({r["mismatch"] for r in mismatched}):
+        diffs = [[m["features"].get(n, math.nan) - by_key[m["point"], int(m["seed"])]["features"].get(n, math.nan)
+                  for n in features] for m in mismatched
+                 if m["mismatch"] == kind and (m["point"], int(m["seed"])) in by_key]
+        if diffs:
+            out[kind] = np.nan_to_num(np.nanmean(np.array(diffs, dtype=float), axis=0))
+    return out
 
 
 def load_design(path: Path | None = None) -> dict[str, Any]:
@@ -153,17 +221,23 @@ def measurement_noise(features: dict[str, float], noise: MeasurementNoise, rng: 
     return out
 
 
-def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[CaseLabel]:
+def plan_emulated(model: BenchmarkModel, per_class: int, seed: int,
+                  truth: TruthEmulator | None = None) -> list[CaseLabel]:
     """``per_class`` cases of every magnitude of every listed effect, ``per_class`` × 3 of no
     effect, and ``per_class`` × 2 of an unlisted effect alone and of a listed and an unlisted one
     together (:func:`~calibrax.diagnosis.benchmark.cases.listed_and_unlisted`, in turn), all at the
     model's answer: the campaign's answer is then the truth's calibrated parameters, so the gap
     "before" is the hidden effect's alone and the oracle (those parameters with the effect) is the
     truth itself. Cases made elsewhere than at the answer carry a parameter mismatch in their gap
-    that a campaign calibrated on them would not leave; the DEM level's cases do (see there)."""
+    that a campaign calibrated on them would not leave; the DEM level's cases do (see there).
+
+    With a ``truth`` whose design has mismatch blocks, per procedure mismatch ``per_class`` cases
+    of the mismatch alone (expected "none" or "none of the candidates" as
+    :meth:`TruthEmulator.mismatch_beyond_noise` finds it) and ``per_class`` of the mismatch with
+    a listed effect at its large magnitude on top (each listed effect in turn; expected: its name)."""
     from calibrax.diagnosis.benchmark.plan import listed_classes
 
-    rows = []   # class, level, params, effects, expected answer
+    rows = []   # class, level, params, effects, expected answer, mismatch
 
     def params() -> dict[str, float]:
         return dict(model.centre)
@@ -171,23 +245,32 @@ def plan_emulated(model: BenchmarkModel, per_class: int, seed: int) -> list[Case
     listed = listed_classes(model)
     for name, pname in listed:
         for level, value in MAGNITUDES[pname].items():
-            rows += [(name, level, params(), {pname: value}, name) for _ in range(per_class)]
-    rows += [(CLASS_NONE, "", params(), {}, NO_EFFECT) for _ in range(3 * per_class)]
+            rows += [(name, level, params(), {pname: value}, name, "") for _ in range(per_class)]
+    rows += [(CLASS_NONE, "", params(), {}, NO_EFFECT, "") for _ in range(3 * per_class)]
     rows += [(CLASS_UNLISTED, "rolling friction", params(), {"rolling_friction": ROLLING_FRICTION_TRUTH},
-              expected_answer(CLASS_UNLISTED)) for _ in range(2 * per_class)]
+              expected_answer(CLASS_UNLISTED), "") for _ in range(2 * per_class)]
     mixed = listed_and_unlisted(listed)
     if mixed:
         pairs = (mixed[k % len(mixed)] for k in range(2 * per_class))
-        rows += [(CLASS_MIXED, f"{name} + rolling friction", params(), dict(effects), name) for name, effects in pairs]
+        rows += [(CLASS_MIXED, f"{name} + rolling friction", params(), dict(effects), name, "")
+                 for name, effects in pairs]
+    for kind in sorted(truth.mismatch) if truth is not None else ():
+        beyond = truth.mismatch_beyond_noise(kind, params(), 3, model.budget.replicates)[0]
+        rows += [(CLASS_MISMATCH, kind, params(), {}, NONE_OF_THEM if beyond else NO_EFFECT, kind)
+                 for _ in range(per_class)]
+        on_top = [(name, {pname: MAGNITUDES[pname]["large"]}) for name, pname in listed if pname in MAGNITUDES]
+        rows += [(CLASS_MISMATCH_LISTED, f"{kind} + {name}", params(), dict(effects), name, kind)
+                 for name, effects in (on_top[k % len(on_top)] for k in range(per_class if on_top else 0))]
     ids = opaque_ids(len(rows), seed)
-    return sorted((CaseLabel(i, k, expected, lvl, "emulator", p, eff)
-                   for i, (k, lvl, p, eff, expected) in zip(ids, rows)), key=lambda c: c.case)
+    return sorted((CaseLabel(i, k, expected, lvl, "emulator", p, eff, mismatch)
+                   for i, (k, lvl, p, eff, expected, mismatch) in zip(ids, rows)), key=lambda c: c.case)
 
 
 def make_case(truth: TruthEmulator, label: CaseLabel, noise: MeasurementNoise, replicates: int,
               rng: np.random.Generator) -> list[dict[str, float]]:
     """The replicates' features of a case."""
-    return [measurement_noise(f, noise, rng) for f in truth.draw(label.params, label.effects, replicates, rng)]
+    return [measurement_noise(f, noise, rng)
+            for f in truth.draw(label.params, label.effects, replicates, rng, label.mismatch)]
 
 
 def diagnose_emulated(truth: TruthEmulator, case: str, experiment: list[dict[str, float]], rng: np.random.Generator,

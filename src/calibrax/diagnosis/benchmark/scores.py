@@ -23,7 +23,11 @@ Scores (over the cases of the labels file that have an answer):
   :data:`MIN_SHRINKAGE_CASES` such cases is reported, not judged: the held-out features do not
   see that effect (at ``tiny``, cohesion and a size distribution move the locus and the
   densities the recalibration is fitted to, and barely the flow and the τ curves' shape);
-* **listed + unlisted** per listed effect as well (:attr:`Scores.mixed_by_effect`).
+* **listed + unlisted** per listed effect as well (:attr:`Scores.mixed_by_effect`);
+* **mismatch** (a procedure the design never saw, no effect), per kind and together: false alarms
+  (a listed effect named), "none of the candidates" over the cases whose mismatch is beyond the
+  noise (their ``expected``), "none" over those inside it; and **mismatch + listed**: the listed
+  effect named (:attr:`Scores.mismatch`).
 """
 
 from __future__ import annotations
@@ -37,12 +41,15 @@ from typing import Any
 import numpy as np
 
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.benchmark.cases import CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, OTHER_CLASSES, CaseLabel
+from calibrax.diagnosis.benchmark.cases import (CLASS_MISMATCH, CLASS_MISMATCH_LISTED, CLASS_MIXED, CLASS_NONE,
+                                                CLASS_UNLISTED, MISMATCH_CLASSES, OTHER_CLASSES, CaseLabel)
 from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM
 from calibrax.errors import ConfigError
 
 #: the goals of issues 20 and 34
 GOAL_TOP1, GOAL_FALSE_ALARMS, GOAL_SHRINKAGE, GOAL_UNLISTED = 0.8, 0.1, 0.7, 0.5
+#: the goals of issue 48 on the mismatch cases
+GOAL_MISMATCH_FALSE_ALARMS, GOAL_MISMATCH_REJECTED = 0.1, 0.7
 #: the oracle's held-out shrinkage a case needs for its ratio to count: where the true effect
 #: itself explains less than a quarter of the held-out gap, that gap is noise and the ratio too
 MIN_ORACLE_SHRINKAGE = 0.25
@@ -206,6 +213,9 @@ class Scores:
     n_mixed: int = 0
     #: the same per listed effect: {effect: (named, named and flagged, cases)}
     mixed_by_effect: dict[str, tuple[float, float, int]] = field(default_factory=dict)
+    #: the mismatch cases per kind and "all": {kind: {score: (rate, cases)}}, scores
+    #: ``false alarms``, ``none of the candidates (beyond)``, ``none (inside)``, ``listed named``
+    mismatch: dict[str, dict[str, tuple[float, int]]] = field(default_factory=dict)
 
     def goals(self) -> list[tuple[str, bool | None]]:
         """Each goal met (True), not met (False) or without a case to judge it (None)."""
@@ -224,6 +234,13 @@ class Scores:
         out += [(f"median shrinkage, {k}, ≥ {GOAL_SHRINKAGE:.0%} of the oracle's",
                  judged(v if self.shrinkage_counts.get(k, 0) >= MIN_SHRINKAGE_CASES else math.nan, v >= GOAL_SHRINKAGE))
                 for k, v in self.shrinkage_by_class.items()]
+        together = self.mismatch.get("all", {})
+        if together:
+            fa, rejected = together["false alarms"][0], together["none of the candidates (beyond)"][0]
+            out += [(f"mismatch false alarms ≤ {GOAL_MISMATCH_FALSE_ALARMS:.0%}",
+                     judged(fa, fa <= GOAL_MISMATCH_FALSE_ALARMS)),
+                    (f"a mismatch beyond the noise answered \"none of the candidates\" ≥ {GOAL_MISMATCH_REJECTED:.0%}",
+                     judged(rejected, rejected >= GOAL_MISMATCH_REJECTED))]
         return out
 
 
@@ -281,7 +298,24 @@ def score(labels: list[CaseLabel], answers: list[Answer]) -> Scores:
                   {k: len(v) for k, v in sorted(ratios_by_class.items())},
                   _rate([a.verdict == lab.expected for lab, a in mixed]),
                   _rate([a.verdict == lab.expected and bool(a.unexplained) for lab, a in mixed]), len(mixed),
-                  _mixed_by_effect(mixed))
+                  _mixed_by_effect(mixed), _mismatch_scores(rows))
+
+
+def _mismatch_scores(rows: list[tuple[CaseLabel, Answer]]) -> dict[str, dict[str, tuple[float, int]]]:
+    """The mismatch cases' scores per kind and over all kinds (see :attr:`Scores.mismatch`)."""
+    cases = [(lab, a) for lab, a in rows if lab.klass in MISMATCH_CLASSES]
+    out = {}
+    for kind in sorted({lab.mismatch for lab, _ in cases}) + ["all"] if cases else ():
+        sel = [(lab, a) for lab, a in cases if kind in ("all", lab.mismatch)]
+        alone = [(lab, a) for lab, a in sel if lab.klass == CLASS_MISMATCH]
+        beyond = [a for lab, a in alone if lab.expected == NONE_OF_THEM]
+        inside = [a for lab, a in alone if lab.expected == NO_EFFECT]
+        listed = [(lab, a) for lab, a in sel if lab.klass == CLASS_MISMATCH_LISTED]
+        out[kind] = {"false alarms": (_rate([a.verdict not in (NO_EFFECT, NONE_OF_THEM) for _, a in alone]), len(alone)),
+                     "none of the candidates (beyond)": (_rate([a.verdict == NONE_OF_THEM for a in beyond]), len(beyond)),
+                     "none (inside)": (_rate([a.verdict == NO_EFFECT for a in inside]), len(inside)),
+                     "listed named": (_rate([a.verdict == lab.expected for lab, a in listed]), len(listed))}
+    return out
 
 
 def _mixed_by_effect(mixed: list[tuple[CaseLabel, Answer]]) -> dict[str, tuple[float, float, int]]:
@@ -318,6 +352,14 @@ def table(scores: Scores, title: str = "") -> str:
         for k, (named, flagged, n) in s.mixed_by_effect.items():
             lines.append(f"| listed + unlisted, {k} + the unlisted one: named; named and flagged | "
                          f"{_pct(named)}; {_pct(flagged)} | {n} |")
+    for kind, row in s.mismatch.items():
+        words = {"false alarms": "a listed effect named (false alarm)",
+                 "none of the candidates (beyond)": "beyond the noise: \"none of the candidates\"",
+                 "none (inside)": "inside the noise: \"none\"",
+                 "listed named": "with a listed effect on top: it named"}
+        for key, (rate, n) in row.items():
+            if n:
+                lines.append(f"| mismatch, {kind.replace('_', ' ')}: {words[key]} | {_pct(rate)} | {n} |")
     lines.append(f"| magnitude error, median relative (of the value the diagnosis tells: the recalibration's) | "
                  f"{_pct(s.magnitude_error)} | {len(s.magnitude_errors)} |")
     lines.append(f"| shrinkage / oracle's, median (held-out gap before beyond seed noise's {GAP_NOISE_QUANTILE:.0%} "
