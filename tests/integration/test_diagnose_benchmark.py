@@ -37,16 +37,20 @@ def test_every_case_is_labelled_answered_and_counted(emulated):
     labels = read_labels(emulated / "labels.yaml")
     answers = read_answers(emulated / "answers.json")
     # one case per magnitude of each of the three candidates, three controls, two of an unlisted
-    # effect alone and two of a listed and an unlisted one together
-    assert len(labels) == 16 and sorted(a.case for a in answers) == sorted(lab.case for lab in labels)
+    # effect alone and two of a listed and an unlisted one together; per procedure mismatch of the
+    # shipped design (two), one case of it alone and one with a listed effect on top
+    assert len(labels) == 20 and sorted(a.case for a in answers) == sorted(lab.case for lab in labels)
     assert sorted(lab.klass for lab in labels).count("none") == 3
     scores = json.loads((emulated / "scores.json").read_text())
     confusion = np.array(scores["confusion"])
-    assert confusion.sum() == 16
+    assert confusion.sum() == 20
     rows = dict(zip(scores["classes"], confusion.sum(axis=1)))
     assert rows == {"cohesion": 3, "size_distribution": 3, "wall_friction": 3, "none": 3, "unlisted": 2,
-                    "listed+unlisted": 2}
-    assert scores["n_mixed"] == 2 and "| listed + unlisted: the listed one named |" in (emulated / "scores.md").read_text()
+                    "listed+unlisted": 2, "mismatch": 2, "mismatch+listed": 2}
+    assert {lab.mismatch for lab in labels if lab.klass.startswith("mismatch")} == {"fixed_preshear", "slow_rate"}
+    md = (emulated / "scores.md").read_text()
+    assert scores["n_mixed"] == 2 and "| listed + unlisted: the listed one named |" in md
+    assert "| mismatch, all: a listed effect named (false alarm) |" in md
     # the confusion matrix is what the labels and answers say, case by case
     by_case = {a.case: a.verdict for a in answers}
     for lab in labels:

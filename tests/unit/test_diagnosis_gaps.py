@@ -16,8 +16,8 @@ def _diagnosis(after: list[FeatureGap], recalibrated: dict | None = None) -> Dia
     before = [FeatureGap("bulk_density", "density", 1500.0, 10.0, 3, 1440.0, 10.0, 4),
               FeatureGap("peak_ratio_9kPa", "peaks", 0.8, 0.05, 3, 0.78, 0.05, 4)]
     if after or recalibrated:
-        confirmed = Confirmation("wall_friction", "wall friction", CONFIRMED, 6.0, 0.5, 1.96, 4.0, 8.0,
-                                 recalibrated or {}, tuple(after))
+        confirmed = Confirmation("wall_friction", "wall friction", CONFIRMED, 6.0, 0.5, 1.96, 4.0, 8.0, 5.0,
+                                 recalibrated=recalibrated or {}, after=tuple(after))
         final = Verdict("wall_friction", "wall friction", None, (confirmed,))
     else:
         final = Verdict("none", "within the noise", None)

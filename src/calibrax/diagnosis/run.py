@@ -433,6 +433,20 @@ def recalibration(box: Box, effect: Effect, scored: _Scored, fit_on: tuple[str, 
     return recal, point
 
 
+def predicted_move(scored: _Scored, box: Box, effect: Effect, point: DesignPoint) -> np.ndarray:
+    """The design emulator's change of every feature from the calibrated point without any effect
+    to ``point`` with ``effect`` at its values, natural units, shape (F,)."""
+    em = scored.emulator
+    centre = box.scaled(np.asarray(box.centre, dtype=float)[None])[0]
+    unit = box.scaled(np.array([[point.params[n] for n in box.space.names]]))[0]
+    effects = np.zeros(len(em.effect_columns))
+    for p in effect.parameters:
+        if p.name in em.effect_columns and p.name in point.effect_values:
+            effects[em.effect_columns.index(p.name)] = float(p.scaled(point.effect_values[p.name]))
+    mu, _ = em.predict(np.array([unit, centre]), np.array([effects, np.zeros_like(effects)]))
+    return mu[0] - mu[1]
+
+
 def judged_verdict(scored: _Scored, box: Box, effects: dict[str, Effect], fit_on: tuple[str, ...], budget: Budget,
                    seed: int, simulate: Callable[[DesignPoint, Effect], list[dict[str, float]]] | None) -> Verdict:
     """The verdict (:func:`calibrax.diagnosis.verdict.decide`): each candidate to confirm is
@@ -452,7 +466,8 @@ def judged_verdict(scored: _Scored, box: Box, effects: dict[str, Effect], fit_on
         recal, point = recalibration(box, effects[name], scored, fit_on, budget, seed)
         sims = simulate(point, effects[name])
         after = gaps.feature_gaps(sims, scored.experiment, names, scored.seed_sd)
-        return judge_confirmation(name, effects[name].label, scored.before, after, judge, corr, len(sims), recal, seed)
+        return judge_confirmation(name, effects[name].label, scored.before, after, judge, corr, len(sims), recal, seed,
+                                  predicted_move(scored, box, effects[name], point)[index])
 
     return decide(scored.ranking, baseline_test(scored.design, scored.target, fit_on, seed), confirm)
 

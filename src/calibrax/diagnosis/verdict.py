@@ -17,10 +17,21 @@ The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict d
 2. **Does the candidate earn its name?** The top candidate (then the runner-up, up to
    ``MAX_TRIED``, each with a Bayes factor of at least 3 against no effect) is recalibrated on the
    fit features and simulated with fresh seeds; the held-out features judge it
-   (:func:`judge_confirmation`): it is confirmed where the held-out gap after is inside the noise
-   and no worse than the noise of the comparison allows, or, where a gap is left, shrunk beyond
-   that noise; it is refuted where it made the held-out gap worse beyond that noise, or left it
-   beyond the noise without shrinking it.
+   (:func:`judge_confirmation`): it is confirmed where the held-out gap after is inside the seed
+   noise's limit (brought into it, or kept inside it where it started there), or, where a gap is
+   left beyond it, where the gap shrank beyond the noise of the comparison: below its 5 %
+   quantile, or with a move of the held-out features toward the experiment beyond ``TOWARD_Z``
+   (either one-sided 5 % test; together about 10 % where nothing changed); it is refuted where the
+   gap after is beyond the limit and grew beyond the comparison's noise (worse), or stayed beyond
+   it without moving toward the experiment where the design emulator predicted that the
+   recalibration moves the held-out features beyond that noise (``VISIBLE_Z``; not shrunk).
+   Where it predicted no such move, the held-out features cannot see the candidate and its
+   confirmation can neither bear it out nor refute it (unseen): the candidate is named on the
+   design's evidence, said to be unconfirmed, and the held-out gap it leaves flagged as an
+   effect outside the candidates (a size distribution shows in the densities, which the
+   recalibration is fitted on, and barely in the flow and the shape it is judged on; where an
+   unlisted effect makes the held-out gap, refusing the size distribution would refuse the
+   listed effect beside it that issue 48 asks to be named).
 3. Where the baseline misfits and no candidate is confirmed, the answer is "none of the
    candidates", with the best candidate and why it failed.
 
@@ -29,7 +40,13 @@ The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict d
 changes nothing on the held-out features", the after means scatter about the before means with
 the seed s.d. times √(1/n_before + 1/n_after), correlated as the design's residuals are; the
 held-out gap (RMS z) that this gives, drawn ``NULL_DRAWS`` times, has a 5 % and a 95 % quantile:
-below the first the gap shrank beyond noise, above the second it grew beyond noise.
+above the second the gap grew beyond noise. Whether it shrank is read feature by feature: the
+sum of |z| before − |z| after over the held-out features, standardised by its mean and s.d.
+under the same null (``toward``; :func:`toward_experiment`). The RMS gap alone is a weak test
+where an effect outside the candidates leaves a large gap on some held-out features: their z²
+dominate it and their noise with them, and a listed effect that removes its own part of the gap
+(a cohesion's compressibility beside a shape effect's flow) would be refuted for what it never
+claimed to explain.
 """
 
 from __future__ import annotations
@@ -52,8 +69,15 @@ MAX_TRIED = 2
 #: draws of the comparison's null distribution, and its quantiles
 NULL_DRAWS = 4000
 NULL_QUANTILES = (0.05, 0.95)
+#: a move toward the experiment beyond this many of its s.d. under the null is beyond the noise
+#: (one-sided 5 %)
+TOWARD_Z = 1.645
 
-CONFIRMED, WORSE, NOT_SHRUNK = "confirmed", "worse", "not shrunk"
+#: the design emulator's predicted move of the held-out features, in s.d. of the comparison's
+#: noise (Mahalanobis), below which a confirmation cannot see the candidate
+VISIBLE_Z = 2.0
+
+CONFIRMED, WORSE, NOT_SHRUNK, UNSEEN = "confirmed", "worse", "not shrunk", "unseen"
 
 
 @dataclass(frozen=True)
@@ -144,6 +168,10 @@ class Confirmation:
             tests (:func:`~calibrax.diagnosis.gap.noise_gap_limit`).
         null_low, null_high: the 5 % and 95 % quantiles of the gap after if the recalibration
             changed nothing (see the module docstring).
+        toward: the held-out features' move toward the experiment, in its s.d. under that null.
+        visible: the design emulator's predicted move of the held-out features from the
+            calibrated point to the recalibration, in s.d. of the comparison's noise (NaN: not
+            predicted, read as visible).
         recalibrated: the recalibration's record (:func:`calibrax.diagnosis.run.recalibration`).
         after: the held-out and fit features' gaps at the recalibration.
     """
@@ -156,6 +184,8 @@ class Confirmation:
     limit: float
     null_low: float
     null_high: float
+    toward: float = math.nan
+    visible: float = math.nan
     recalibrated: dict[str, Any] = field(default_factory=dict)
     after: tuple[gaps.FeatureGap, ...] = ()
 
@@ -164,20 +194,31 @@ class Confirmation:
         return self.outcome == CONFIRMED
 
     @property
+    def stands(self) -> bool:
+        """Confirmed, or unseen by the held-out features (not refuted)."""
+        return self.outcome in (CONFIRMED, UNSEEN)
+
+    @property
     def gap_left(self) -> bool:
-        """A confirmed candidate that leaves the held-out gap beyond the noise."""
-        return self.confirmed and self.gap_after > self.limit
+        """A candidate that stands and leaves the held-out gap beyond the noise."""
+        return self.stands and self.gap_after > self.limit
 
     def words(self) -> str:
         change = (f"the held-out gap went from {self.gap_before:.2f} to {self.gap_after:.2f} (RMS z; seed noise alone "
                   f"stays below {self.limit:.2f}, and a recalibration that changed nothing would give "
                   f"{self.null_low:.2f} to {self.null_high:.2f})")
+        move = f"a move toward the experiment of {self.toward:.1f} s.d. of the comparison's noise"
         if self.outcome == WORSE:
             return f"recalibrated with {self.label}, {change}: worse beyond the noise, so its own confirmation refutes it"
+        if self.outcome == UNSEEN:
+            return (f"recalibrated with {self.label}, {change}: still beyond the noise, but the design predicts a move "
+                    f"of the held-out features of only {self.visible:.1f} s.d. of the comparison's noise (it would "
+                    f"need {VISIBLE_Z:g}), so they cannot see it: unconfirmed, and not refuted")
         if self.outcome == NOT_SHRUNK:
-            return f"recalibrated with {self.label}, {change}: still beyond the noise and not shrunk beyond it"
+            return (f"recalibrated with {self.label}, {change}: still beyond the noise and not below that range, "
+                    f"{move} (it needs {TOWARD_Z:g}), so its own confirmation does not bear it out")
         if self.gap_left:
-            return f"recalibrated with {self.label}, {change}: shrunk beyond the noise, though not into it"
+            return f"recalibrated with {self.label}, {change}: shrunk beyond the noise ({move}), though not into it"
         if self.gap_before > self.limit:
             return f"recalibrated with {self.label}, {change}: brought into the noise"
         return f"recalibrated with {self.label}, {change}: kept inside the noise"
@@ -185,7 +226,29 @@ class Confirmation:
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "label": self.label, "outcome": self.outcome, "gap_before": self.gap_before,
                 "gap_after": self.gap_after, "limit": self.limit, "null_interval": [self.null_low, self.null_high],
+                "toward": self.toward, "visible": self.visible,
                 "words": self.words(), "recalibrated": self.recalibrated}
+
+
+def _null_spread(before: list[gaps.FeatureGap], n_after: int) -> np.ndarray:
+    """The s.d. of each held-out feature's after mean about its before mean if the recalibration
+    changed nothing, natural units, shape (k,)."""
+    sd = np.array([g.sim_sd for g in before])
+    return sd * math.sqrt(1.0 / max(g.n_sim for g in before) + 1.0 / n_after)
+
+
+def _stderr_after(before: list[gaps.FeatureGap], n_after: int) -> np.ndarray:
+    return np.array([gaps.FeatureGap(g.name, g.group, g.experiment_mean, g.experiment_sd, g.n_experiment, 0.0,
+                                     g.sim_sd, n_after).stderr for g in before])
+
+
+def _null_z(before: list[gaps.FeatureGap], corr: np.ndarray, n_after: int, seed: int) -> np.ndarray:
+    """Draws of the held-out z after a recalibration that changed nothing, shape (NULL_DRAWS, k)."""
+    spread = _null_spread(before, n_after)
+    cov = spread[:, None] * corr * spread[None, :]
+    sim_mean = np.array([g.sim_mean for g in before])
+    draws = np.random.default_rng([seed, 48]).multivariate_normal(sim_mean, cov, size=NULL_DRAWS, method="eigh")
+    return (draws - np.array([g.experiment_mean for g in before])) / _stderr_after(before, n_after)
 
 
 def null_interval(before: list[gaps.FeatureGap], corr: np.ndarray, n_after: int,
@@ -199,23 +262,42 @@ def null_interval(before: list[gaps.FeatureGap], corr: np.ndarray, n_after: int,
     """
     if not before or n_after < 1:
         return math.nan, math.nan
-    sim_mean = np.array([g.sim_mean for g in before])
-    sd = np.array([g.sim_sd for g in before])
-    spread = sd * math.sqrt(1.0 / max(g.n_sim for g in before) + 1.0 / n_after)
-    cov = spread[:, None] * corr * spread[None, :]
-    draws = np.random.default_rng([seed, 48]).multivariate_normal(sim_mean, cov, size=NULL_DRAWS, method="eigh")
-    after = [gaps.FeatureGap(g.name, g.group, g.experiment_mean, g.experiment_sd, g.n_experiment, 0.0, g.sim_sd,
-                             n_after) for g in before]
-    se = np.array([g.stderr for g in after])
-    e_mean = np.array([g.experiment_mean for g in before])
-    rms = np.sqrt(np.mean(((draws - e_mean) / se) ** 2, axis=1))
+    rms = np.sqrt(np.mean(_null_z(before, corr, n_after, seed) ** 2, axis=1))
     low, high = np.quantile(rms, NULL_QUANTILES)
     return float(low), float(high)
 
 
+def toward_experiment(before: list[gaps.FeatureGap], after: list[gaps.FeatureGap], corr: np.ndarray,
+                      n_after: int, seed: int = 0) -> float:
+    """How far the recalibration brought the held-out features toward the experiment: the sum over
+    them of |z| before − |z| after (each in the after's standard errors), standardised by its mean
+    and s.d. if the recalibration changed nothing (see the module docstring). A feature far off
+    that no candidate explains adds its noise, not its square, so a candidate that brings its own
+    features in is seen beside it. ``after`` in the order of ``before``."""
+    se = _stderr_after(before, n_after)
+    e_mean = np.array([g.experiment_mean for g in before])
+    z_before = np.abs((np.array([g.sim_mean for g in before]) - e_mean) / se)
+    z_after = np.abs((np.array([g.sim_mean for g in after]) - e_mean) / se)
+    if not np.all(np.isfinite(z_after)):
+        return math.nan
+    null = np.sum(z_before - np.abs(_null_z(before, corr, n_after, seed)), axis=1)
+    sd = float(np.std(null))
+    return float((np.sum(z_before - z_after) - np.mean(null)) / sd) if sd > 0 else math.nan
+
+
+def visibility(before: list[gaps.FeatureGap], predicted: np.ndarray, corr: np.ndarray, n_after: int) -> float:
+    """The predicted move ``predicted`` of the held-out features (natural units, shape (k,), in
+    the order of ``before``) in s.d. of the comparison's noise: √(Δᵀ C⁻¹ Δ), C the covariance of
+    the after means about the before means if nothing changed."""
+    spread = _null_spread(before, n_after)
+    cov = spread[:, None] * corr * spread[None, :]
+    d = np.asarray(predicted, dtype=float)
+    return float(math.sqrt(max(d @ np.linalg.lstsq(cov, d, rcond=None)[0], 0.0)))
+
+
 def judge_confirmation(effect: str, label: str, before: list[gaps.FeatureGap], after: list[gaps.FeatureGap],
                        judge: tuple[str, ...], corr: np.ndarray, n_after: int, recalibrated: dict[str, Any],
-                       seed: int = 0) -> Confirmation:
+                       seed: int = 0, predicted: np.ndarray | None = None) -> Confirmation:
     """Judge one candidate's confirmation on the held-out features ``judge`` (see the module docstring).
 
     Args:
@@ -223,19 +305,30 @@ def judge_confirmation(effect: str, label: str, before: list[gaps.FeatureGap], a
         judge: the held-out features.
         corr: the residual correlation of ``judge``, shape (k, k).
         n_after: the confirmation's seeds.
+        predicted: the design emulator's move of the ``judge`` features from the calibrated point
+            to the recalibration, natural units, shape (k,) (None: not predicted, read as visible).
     """
     held_before = [g for n in judge for g in before if g.name == n]
-    held_after = [g for g in after if g.name in judge]
+    held_after = [g for n in judge for g in after if g.name == n]
     limit = gaps.noise_gap_limit(len(held_before))
     b, a = gaps.gap_size(held_before), gaps.gap_size(held_after)
     low, high = null_interval(held_before, corr, n_after, seed)
-    if not math.isfinite(a) or a > high:
+    toward = (toward_experiment(held_before, held_after, corr, n_after, seed) if len(held_after) == len(held_before)
+              else math.nan)
+    if not math.isfinite(a):
         outcome = WORSE
-    elif a <= limit or a < low:
+    elif a <= limit:
+        outcome = CONFIRMED
+    elif a > high:
+        outcome = WORSE
+    elif a < b and (a < low or toward > TOWARD_Z):
         outcome = CONFIRMED
     else:
         outcome = NOT_SHRUNK
-    return Confirmation(effect, label, outcome, b, a, limit, low, high, recalibrated, tuple(after))
+    seen = visibility(held_before, predicted, corr, n_after) if predicted is not None else math.nan
+    if outcome == NOT_SHRUNK and seen < VISIBLE_Z:
+        outcome = UNSEEN
+    return Confirmation(effect, label, outcome, b, a, limit, low, high, toward, seen, recalibrated, tuple(after))
 
 
 @dataclass(frozen=True)
@@ -262,7 +355,7 @@ class Verdict:
     @property
     def adopted(self) -> Confirmation | None:
         """The confirmation of the named effect (None where none was named)."""
-        return next((c for c in self.confirmations if c.confirmed and c.effect == self.name), None)
+        return next((c for c in self.confirmations if c.stands and c.effect == self.name), None)
 
     def to_dict(self) -> dict[str, Any]:
         return {"verdict": self.name, "reason": self.reason, "unexplained": list(self.unexplained),
@@ -310,12 +403,13 @@ def decide(ranking: Ranking, baseline: BaselineFit | BaselineTest | None, confir
     for model in tried:
         result = confirm(model.name)
         done.append(result)
-        if result.confirmed:
+        if result.stands:
             left = tuple(ranking.unexplained if model.name == ranking.verdict else ())
             if result.gap_left:
                 left += (f"the held-out features (RMS z {result.gap_after:.2f} after, beyond the noise's "
                          f"{result.limit:.2f})",)
-            words = (f"{model.label} explains the gap (p = {model.probability:.2f}, confirmed): {baseline.words()}; "
+            how = "confirmed" if result.confirmed else "unconfirmed: the held-out features cannot see it"
+            words = (f"{model.label} explains the gap (p = {model.probability:.2f}, {how}): {baseline.words()}; "
                      f"{result.words()}"
                      + (f"; it leaves {', '.join(left)}: an effect outside the candidates acts beside it" if left else ""))
             if len(done) > 1:

@@ -9,9 +9,9 @@ experiment files a diagnosis sees.
 * ``unlisted``: an effect outside the candidate list alone: a different rolling friction (the
   sphere model's stand-in for particle shape, :class:`RollingFriction`). The right answer is
   "none of the candidates";
-* ``mismatch``: no effect, but made with a procedure the diagnosis's model and design never saw
-  (:data:`MISMATCHES`: the former fixed preshear of 0.12 rad, half the rotation rate), the
-  kind of mismatch a real instrument brings. The right answer is "none" where the mismatch
+* ``mismatch``: no effect, but made with a procedure or an engine the diagnosis's model and
+  design never saw (:data:`MISMATCHES`: the former fixed preshear of 0.12 rad, half and three
+  times the rotation rate, LIGGGHTS for numba_dem), the kind of mismatch a real instrument brings. The right answer is "none" where the mismatch
   stays inside the noise and "none of the candidates" beyond it;
 * ``mismatch+listed``: such a mismatch with a listed effect at its large magnitude on top; the
   right answer names the listed effect;
@@ -79,15 +79,24 @@ CLASS_MISMATCH_LISTED = "mismatch+listed"
 OTHER_CLASSES = (CLASS_NONE, CLASS_UNLISTED, CLASS_MIXED, CLASS_MISMATCH, CLASS_MISMATCH_LISTED)
 #: the classes whose truth comes from a procedure the diagnosis's design never saw
 MISMATCH_CLASSES = (CLASS_MISMATCH, CLASS_MISMATCH_LISTED)
-#: what a mismatched truth changes in the model's procedure: ``preshear_rotation`` and
-#: ``preshear_max_rotation`` are set as given, ``rotation_rate`` is a factor on the model's. The
-#: fixed preshear of 0.12 rad is what every preset ran before the steady preshear (its preshears
-#: end inside the transient, docs/explanation/seed-noise.md); half the rate is a slower
-#: instrument (the peaks' τ/σ still moves with the rate at `quick`: README, "Convergence at quick")
-MISMATCHES: dict[str, dict[str, float | None]] = {
+#: what a mismatched truth changes: ``backend`` the engine that makes it (another engine's contact
+#: laws, integration and packing), procedure fields set as given, ``rotation_rate`` as a factor on
+#: the model's. The fixed preshear of 0.12 rad is what every preset ran before the steady preshear
+#: (its preshears end inside the transient, docs/explanation/seed-noise.md); half the rate is a
+#: slower instrument, three times it a faster one (the peaks' τ/σ still moves with the rate at
+#: `quick`: README, "Convergence at quick"); LIGGGHTS has no compressibility ramp, so its truth
+#: runs without one and takes the model's engine's compressibility and conditioned bulk density
+MISMATCHES: dict[str, dict[str, Any]] = {
     "fixed_preshear": {"preshear_rotation": 0.12, "preshear_max_rotation": None},
     "slow_rate": {"rotation_rate": 0.5},
+    "fast_rate": {"rotation_rate": 3.0},
+    "liggghts": {"backend": "liggghts", "compressibility_stresses": ()},
 }
+
+
+def mismatch_backend(kind: str, backend: str) -> str:
+    """The engine that makes a truth of mismatch ``kind`` (``backend``: the model's)."""
+    return str(MISMATCHES.get(kind, {}).get("backend", backend)) if kind else backend
 
 
 def apply_mismatch(spec, kind: str):
@@ -96,10 +105,10 @@ def apply_mismatch(spec, kind: str):
         return spec
     if kind not in MISMATCHES:
         raise ConfigError("mismatch", f"one of {sorted(MISMATCHES)}, got {kind!r}")
-    change = dict(MISMATCHES[kind])
+    change = {k: v for k, v in MISMATCHES[kind].items() if k != "backend"}
     if "rotation_rate" in change:
         change["rotation_rate"] = spec.procedure.rotation_rate * float(change["rotation_rate"])
-    return spec.replace(procedure=change)
+    return spec.replace(procedure=change) if change else spec
 
 
 class RollingFriction:

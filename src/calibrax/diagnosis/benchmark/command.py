@@ -89,6 +89,8 @@ def run_benchmark(*, level: str = "emulator", model: Path | None = None, design:
                              for k, (named, flagged, n) in result.mixed_by_effect.items()},
          "magnitude_error": result.magnitude_error, "shrinkage_ratio": result.shrinkage_ratio,
          "shrinkage_by_class": result.shrinkage_by_class, "shrinkage_counts": result.shrinkage_counts,
+         "mismatch": {kind: {k: {"rate": rate, "cases": n} for k, (rate, n) in row.items()}
+                      for kind, row in result.mismatch.items()},
          "goals": {name: ok for name, ok in result.goals()}, "cases": result.per_case,
          "wall_time": time.monotonic() - started}, indent=1, default=float))
     sc.confusion_figure(result, out / "confusion.png", title)
@@ -187,8 +189,9 @@ def _progress_log(what: str):
 
 
 def _per_case_table(result) -> str:
-    rows = ["| case | class | magnitude | truth | verdict | p | shrinkage | oracle's |", "|---" * 8 + "|"]
+    rows = ["| case | class | magnitude | truth | expected | verdict | p | shrinkage | oracle's |", "|---" * 9 + "|"]
     for r in result.per_case:
-        rows.append(f"| {r['case']} | {r['class']} | {r['magnitude']} | {r['truth_backend']} | {r['verdict']} | "
+        rows.append(f"| {r['case']} | {r['class']} | {r['magnitude']} | {r['truth_backend']} | {r['expected']} | "
+                    f"{r['verdict']} | "
                     f"{r['p']:.2f} | {r['shrinkage']:.2f} | {r['oracle_shrinkage']:.2f} |")
     return "\n".join(rows)

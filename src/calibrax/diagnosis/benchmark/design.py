@@ -13,7 +13,7 @@ import shutil
 from pathlib import Path
 
 from calibrax.core.studies.study import StudyCase, run_study
-from calibrax.diagnosis.benchmark.cases import RollingFriction, apply_mismatch
+from calibrax.diagnosis.benchmark.cases import RollingFriction, apply_mismatch, mismatch_backend
 from calibrax.diagnosis.benchmark.model import BenchmarkModel
 from calibrax.diagnosis.design import Budget, DesignPoint, design_points
 from calibrax.diagnosis.run import design_case, stage_progress, study_store
@@ -47,7 +47,7 @@ MISMATCH_BASELINE = 4
 
 
 def mismatch_cases(model: BenchmarkModel, kind: str) -> tuple[list[DesignPoint], list[StudyCase]]:
-    """A procedure mismatch's block (:data:`~calibrax.diagnosis.benchmark.cases.MISMATCHES`): the
+    """A mismatch's block (:data:`~calibrax.diagnosis.benchmark.cases.MISMATCHES`): the
     shared design's calibrated point and first baseline points with the same seeds, the same poured
     beds, made with the mismatched procedure, so that each simulation pairs with one of the design's
     and the mismatch's offset is measured free of most seed noise."""
@@ -57,8 +57,8 @@ def mismatch_cases(model: BenchmarkModel, kind: str) -> tuple[list[DesignPoint],
     cases = []
     for p in points:
         case = design_case(calibrated, model.simulator, p, {})
-        cases.append(StudyCase(f"{kind}: {case.label}", case.backend, apply_mismatch(case.spec, kind).validate(),
-                               case.seeds, case.coords))
+        cases.append(StudyCase(f"{kind}: {case.label}", mismatch_backend(kind, case.backend),
+                               apply_mismatch(case.spec, kind).validate(), case.seeds, case.coords))
     return points, cases
 
 

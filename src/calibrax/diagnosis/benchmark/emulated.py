@@ -185,8 +185,10 @@ def mismatch_offsets(rows: list[dict[str, Any]], mismatched: list[dict[str, Any]
                      features: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Each procedure mismatch's offset of the features' means, shape (F,): the mean difference of
     its rows from the design's rows of the same point and seed (the same poured bed, so the pairs
-    share part of their seed noise). A constant offset over the box: the blocks run the calibrated
-    point and a few baseline points only, too few for a slope."""
+    share part of their seed noise; another engine's beds are its own). A constant offset over the
+    box: the blocks run the calibrated point and a few baseline points only, too few for a slope.
+    A feature the mismatch's rows do not measure (LIGGGHTS has no compressibility ramp) keeps the
+    design's value: offset 0."""
     by_key = {(r["point"], int(r["seed"])): r for r in rows}
     out: dict[str, np.ndarray] = {}
     for kind in sorted({r["mismatch"] for r in mismatched}):
@@ -194,7 +196,10 @@ def mismatch_offsets(rows: list[dict[str, Any]], mismatched: list[dict[str, Any]
                   for n in features] for m in mismatched
                  if m["mismatch"] == kind and (m["point"], int(m["seed"])) in by_key]
         if diffs:
-            out[kind] = np.nan_to_num(np.nanmean(np.array(diffs, dtype=float), axis=0))
+            d = np.array(diffs, dtype=float)
+            seen = np.isfinite(d)
+            # a feature the mismatched engine does not measure keeps the model's (offset 0)
+            out[kind] = np.where(seen, d, 0.0).sum(axis=0) / np.maximum(seen.sum(axis=0), 1)
     return out
 
 
