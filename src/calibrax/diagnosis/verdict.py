@@ -20,8 +20,10 @@ The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict d
    (:func:`judge_confirmation`): it is confirmed where the held-out gap after is inside the seed
    noise's limit (brought into it, or kept inside it where it started there), or, where a gap is
    left beyond it, where the gap shrank beyond the noise of the comparison: below its 5 %
-   quantile, or with a move of the held-out features toward the experiment beyond ``TOWARD_Z``
-   (either one-sided 5 % test; together about 10 % where nothing changed); it is refuted where the
+   quantile, or with a move of the held-out features toward the experiment beyond ``TOWARD_Z``,
+   or with a move along the one the design emulator predicts for the recalibration beyond
+   ``TOWARD_Z`` where that prediction is toward the experiment (each a one-sided 5 % test; where
+   nothing changed, together about 10–15 %); it is refuted where the
    gap after is beyond the limit and grew beyond the comparison's noise (worse), or stayed beyond
    it without moving toward the experiment where the design emulator predicted that the
    recalibration moves the held-out features beyond that noise (``VISIBLE_Z``; not shrunk).
@@ -169,6 +171,8 @@ class Confirmation:
         null_low, null_high: the 5 % and 95 % quantiles of the gap after if the recalibration
             changed nothing (see the module docstring).
         toward: the held-out features' move toward the experiment, in its s.d. under that null.
+        as_predicted: their move along the design emulator's predicted one, in its s.d. under that
+            null (NaN where nothing was predicted or the prediction leads away from the experiment).
         visible: the design emulator's predicted move of the held-out features from the
             calibrated point to the recalibration, in s.d. of the comparison's noise (NaN: not
             predicted, read as visible).
@@ -186,6 +190,7 @@ class Confirmation:
     null_high: float
     toward: float = math.nan
     visible: float = math.nan
+    as_predicted: float = math.nan
     recalibrated: dict[str, Any] = field(default_factory=dict)
     after: tuple[gaps.FeatureGap, ...] = ()
 
@@ -207,7 +212,8 @@ class Confirmation:
         change = (f"the held-out gap went from {self.gap_before:.2f} to {self.gap_after:.2f} (RMS z; seed noise alone "
                   f"stays below {self.limit:.2f}, and a recalibration that changed nothing would give "
                   f"{self.null_low:.2f} to {self.null_high:.2f})")
-        move = f"a move toward the experiment of {self.toward:.1f} s.d. of the comparison's noise"
+        move = f"a move toward the experiment of {self.toward:.1f} s.d. of the comparison's noise" + (
+            f" ({self.as_predicted:.1f} along the design's prediction)" if math.isfinite(self.as_predicted) else "")
         if self.outcome == WORSE:
             return f"recalibrated with {self.label}, {change}: worse beyond the noise, so its own confirmation refutes it"
         if self.outcome == UNSEEN:
@@ -226,7 +232,7 @@ class Confirmation:
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "label": self.label, "outcome": self.outcome, "gap_before": self.gap_before,
                 "gap_after": self.gap_after, "limit": self.limit, "null_interval": [self.null_low, self.null_high],
-                "toward": self.toward, "visible": self.visible,
+                "toward": self.toward, "visible": self.visible, "as_predicted": self.as_predicted,
                 "words": self.words(), "recalibrated": self.recalibrated}
 
 
@@ -295,6 +301,26 @@ def visibility(before: list[gaps.FeatureGap], predicted: np.ndarray, corr: np.nd
     return float(math.sqrt(max(d @ np.linalg.lstsq(cov, d, rcond=None)[0], 0.0)))
 
 
+def along_prediction(before: list[gaps.FeatureGap], after: list[gaps.FeatureGap], predicted: np.ndarray,
+                     corr: np.ndarray, n_after: int) -> float:
+    """The held-out features' observed move projected on the design emulator's predicted move (both
+    natural units, shape (k,), in the order of ``before``), in its s.d. if the recalibration
+    changed nothing: Δ_obsᵀ C⁻¹ Δ_pred / √(Δ_predᵀ C⁻¹ Δ_pred). NaN where the prediction does not
+    bring the held-out features toward the experiment (their summed |z| would not fall)."""
+    spread = _null_spread(before, n_after)
+    cov = spread[:, None] * corr * spread[None, :]
+    pred = np.asarray(predicted, dtype=float)
+    sim = np.array([g.sim_mean for g in before])
+    e_mean = np.array([g.experiment_mean for g in before])
+    se = _stderr_after(before, n_after)
+    if not np.sum(np.abs(sim - e_mean) / se) > np.sum(np.abs(sim + pred - e_mean) / se):
+        return math.nan
+    w = np.linalg.lstsq(cov, pred, rcond=None)[0]
+    norm = float(pred @ w)
+    observed = np.array([g.sim_mean for g in after]) - sim
+    return float(observed @ w / math.sqrt(norm)) if norm > 0 and np.all(np.isfinite(observed)) else math.nan
+
+
 def judge_confirmation(effect: str, label: str, before: list[gaps.FeatureGap], after: list[gaps.FeatureGap],
                        judge: tuple[str, ...], corr: np.ndarray, n_after: int, recalibrated: dict[str, Any],
                        seed: int = 0, predicted: np.ndarray | None = None) -> Confirmation:
@@ -315,20 +341,22 @@ def judge_confirmation(effect: str, label: str, before: list[gaps.FeatureGap], a
     low, high = null_interval(held_before, corr, n_after, seed)
     toward = (toward_experiment(held_before, held_after, corr, n_after, seed) if len(held_after) == len(held_before)
               else math.nan)
+    along = (along_prediction(held_before, held_after, predicted, corr, n_after)
+             if predicted is not None and len(held_after) == len(held_before) else math.nan)
     if not math.isfinite(a):
         outcome = WORSE
     elif a <= limit:
         outcome = CONFIRMED
     elif a > high:
         outcome = WORSE
-    elif a < b and (a < low or toward > TOWARD_Z):
+    elif a < b and (a < low or toward > TOWARD_Z or along > TOWARD_Z):
         outcome = CONFIRMED
     else:
         outcome = NOT_SHRUNK
     seen = visibility(held_before, predicted, corr, n_after) if predicted is not None else math.nan
     if outcome == NOT_SHRUNK and seen < VISIBLE_Z:
         outcome = UNSEEN
-    return Confirmation(effect, label, outcome, b, a, limit, low, high, toward, seen, recalibrated, tuple(after))
+    return Confirmation(effect, label, outcome, b, a, limit, low, high, toward, seen, along, recalibrated, tuple(after))
 
 
 @dataclass(frozen=True)
