@@ -156,3 +156,20 @@ def test_a_candidate_the_held_out_features_cannot_see_is_unconfirmed_not_refuted
     assert seen.outcome == NOT_SHRUNK and seen.visible > 2
     v = decide(_ranking("size_distribution"), MISFITS, lambda effect: blind)
     assert v.name == "size_distribution" and "unconfirmed" in v.reason and v.unexplained
+
+
+def test_a_move_along_the_predicted_one_toward_the_experiment_confirms_it():
+    """Four held-out features, three far off for a reason no candidate has, one the candidate's own:
+    the recalibration brings that one in, as the design predicted. The RMS gap barely moves; the
+    move along the prediction is beyond the noise. A prediction leading away from the experiment
+    confirms nothing, however well the simulation follows it."""
+    names = ("a", "b", "c", "d")
+    before = [_gap("a", 6.0), _gap("b", -6.0), _gap("c", 6.0), _gap("d", 2.5)]
+    after = [_gap("a", 6.0), _gap("b", -6.0), _gap("c", 6.0), _gap("d", 0.0)]
+    toward = judge_confirmation("cohesion", "Cohesion", before, after, names, np.eye(4), 3, {},
+                                predicted=np.array([0.0, 0.0, 0.0, -2.5]))
+    assert toward.outcome == CONFIRMED and toward.as_predicted > 2, toward.words()
+    away_after = [_gap("a", 6.0), _gap("b", -6.0), _gap("c", 6.0), _gap("d", 5.0)]
+    away = judge_confirmation("cohesion", "Cohesion", before, away_after, names, np.eye(4), 3, {},
+                              predicted=np.array([0.0, 0.0, 0.0, 2.5]))
+    assert away.outcome != CONFIRMED and math.isnan(away.as_predicted)

@@ -146,22 +146,33 @@ class TruthEmulator:
     def mismatch_beyond_noise(self, kind: str, params: dict[str, float], replicates: int, n_sim: int,
                               fit_on: tuple[str, ...] = gaps.DEFAULT_FIT) -> tuple[bool, float, float]:
         """Whether the mismatch ``kind`` at ``params`` is beyond the noise as the verdict's baseline
-        test sees it (:class:`~calibrax.diagnosis.verdict.BaselineFit`), free of noise: the model's
-        procedure, its calibrated parameters refitted over the box, against the mismatched means on
-        the ``fit_on`` features, each scaled by the standard error of ``replicates`` tests against
-        ``n_sim`` simulations; beyond where a feature's |z| exceeds 3 or the noncentral χ²'s mean
-        (dof + λ) exceeds the χ² quantile the baseline test rejects at. Returns (beyond, the
-        largest |z|, λ) at that refit."""
+        test sees it (:class:`~calibrax.diagnosis.verdict.BaselineTest`), free of noise: the model's
+        procedure, its calibrated parameters refitted over the box, against the mismatched means,
+        each feature scaled by the standard error of ``replicates`` tests against ``n_sim``
+        simulations; on the ``fit_on`` features and on every feature, beyond where either has a
+        feature past |z| = 3 or a noncentral χ² whose mean (dof + λ) exceeds the χ² quantile the
+        baseline test rejects at. Returns (beyond, the largest |z|, the larger λ) at those refits."""
+        fit = [j for j, n in enumerate(self.features) if gaps.group_of(n) in fit_on]
+        every = list(range(len(self.features)))
+        results = [self._refit_noise_free(kind, params, keep, replicates, n_sim) for keep in (fit, every)]
+        return (any(r[0] for r in results), max(r[1] for r in results), max(r[2] for r in results))
+
+    def _refit_noise_free(self, kind: str, params: dict[str, float], keep: list[int], replicates: int,
+                          n_sim: int) -> tuple[bool, float, float]:
         from scipy.optimize import minimize
         from scipy.stats import chi2
 
-        from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z
+        from calibrax.diagnosis.scoring import CORRELATION_SHRINKAGE, IMPLAUSIBLE_Z
         from calibrax.diagnosis.verdict import BASELINE_ADEQUACY
 
-        keep = [j for j, n in enumerate(self.features) if gaps.group_of(n) in fit_on]
+        noise = self.plain_cov if self.plain_cov is not None else self.cov
         target = self.mean(params, {}, kind)[keep]
-        se = np.sqrt(np.diag(self.cov)[keep] * (1.0 / replicates + 1.0 / n_sim))
-        corr = self.cov[np.ix_(keep, keep)] / np.outer(se, se) * (1.0 / replicates + 1.0 / n_sim)
+        factor = 1.0 / replicates + 1.0 / n_sim
+        se = np.sqrt(np.diag(noise)[keep] * factor)
+        raw = noise[np.ix_(keep, keep)] * factor / np.outer(se, se)
+        # shrunk toward independence as the diagnosis's own emulator shrinks it (nearly collinear
+        # features, a preshear ratio and the shear's end, would otherwise weigh noise as signal)
+        corr = CORRELATION_SHRINKAGE * np.eye(len(keep)) + (1.0 - CORRELATION_SHRINKAGE) * raw
         box = self.model.box()
         names = box.space.names
 
