@@ -24,10 +24,11 @@ Scores (over the cases of the labels file that have an answer):
   see that effect (at ``tiny``, cohesion and a size distribution move the locus and the
   densities the recalibration is fitted to, and barely the flow and the τ curves' shape);
 * **listed + unlisted** per listed effect as well (:attr:`Scores.mixed_by_effect`);
-* **mismatch** (a procedure the design never saw, no effect), per kind and together: false alarms
-  (a listed effect named), "none of the candidates" over the cases whose mismatch is beyond the
-  noise (their ``expected``), "none" over those inside it; and **mismatch + listed**: the listed
-  effect named (:attr:`Scores.mismatch`).
+* **mismatch** (a procedure or an engine the design never saw, no effect), per kind and
+  together: false alarms (a listed effect named), "none of the candidates" over the cases whose
+  mismatch is beyond the noise (their ``expected``), "none" over those inside it, and the share
+  of "none of the candidates" at the noise's edge, where either answer is right; and **mismatch +
+  listed**: the listed effect named (:attr:`Scores.mismatch`).
 """
 
 from __future__ import annotations
@@ -310,10 +311,13 @@ def _mismatch_scores(rows: list[tuple[CaseLabel, Answer]]) -> dict[str, dict[str
         alone = [(lab, a) for lab, a in sel if lab.klass == CLASS_MISMATCH]
         beyond = [a for lab, a in alone if lab.expected == NONE_OF_THEM]
         inside = [a for lab, a in alone if lab.expected == NO_EFFECT]
+        either = [a for lab, a in alone if lab.expected not in (NO_EFFECT, NONE_OF_THEM)]
         listed = [(lab, a) for lab, a in sel if lab.klass == CLASS_MISMATCH_LISTED]
         out[kind] = {"false alarms": (_rate([a.verdict not in (NO_EFFECT, NONE_OF_THEM) for _, a in alone]), len(alone)),
                      "none of the candidates (beyond)": (_rate([a.verdict == NONE_OF_THEM for a in beyond]), len(beyond)),
                      "none (inside)": (_rate([a.verdict == NO_EFFECT for a in inside]), len(inside)),
+                     "none of the candidates (borderline)": (_rate([a.verdict == NONE_OF_THEM for a in either]),
+                                                             len(either)),
                      "listed named": (_rate([a.verdict == lab.expected for lab, a in listed]), len(listed))}
     return out
 
@@ -356,6 +360,8 @@ def table(scores: Scores, title: str = "") -> str:
         words = {"false alarms": "a listed effect named (false alarm)",
                  "none of the candidates (beyond)": "beyond the noise: \"none of the candidates\"",
                  "none (inside)": "inside the noise: \"none\"",
+                 "none of the candidates (borderline)": "at the noise's edge (either answer right): \"none of the "
+                                                        "candidates\"",
                  "listed named": "with a listed effect on top: it named"}
         for key, (rate, n) in row.items():
             if n:
