@@ -38,16 +38,20 @@ def test_every_case_is_labelled_answered_and_counted(emulated):
     answers = read_answers(emulated / "answers.json")
     # one case per magnitude of each of the three candidates, three controls, two of an unlisted
     # effect alone and two of a listed and an unlisted one together; per procedure mismatch of the
-    # shipped design (two), one case of it alone and one with a listed effect on top
-    assert len(labels) == 20 and sorted(a.case for a in answers) == sorted(lab.case for lab in labels)
+    # shipped design (five), one case of it alone and one with a listed effect on top
+    assert len(labels) == 26 and sorted(a.case for a in answers) == sorted(lab.case for lab in labels)
     assert sorted(lab.klass for lab in labels).count("none") == 3
     scores = json.loads((emulated / "scores.json").read_text())
     confusion = np.array(scores["confusion"])
-    assert confusion.sum() == 20
+    assert confusion.sum() == 26
     rows = dict(zip(scores["classes"], confusion.sum(axis=1)))
     assert rows == {"cohesion": 3, "size_distribution": 3, "wall_friction": 3, "none": 3, "unlisted": 2,
-                    "listed+unlisted": 2, "mismatch": 2, "mismatch+listed": 2}
-    assert {lab.mismatch for lab in labels if lab.klass.startswith("mismatch")} == {"fixed_preshear", "slow_rate"}
+                    "listed+unlisted": 2, "mismatch": 5, "mismatch+listed": 5}
+    assert {lab.mismatch for lab in labels if lab.klass.startswith("mismatch")} == {
+        "fixed_preshear", "slow_rate", "fast_rate", "inertial_rate", "liggghts"}
+    # the eight-times rate is beyond the noise, the former fixed preshear inside it
+    expected = {lab.mismatch: lab.expected for lab in labels if lab.klass == "mismatch"}
+    assert expected["inertial_rate"] == "none of the candidates" and expected["fixed_preshear"] == "none"
     md = (emulated / "scores.md").read_text()
     assert scores["n_mixed"] == 2 and "| listed + unlisted: the listed one named |" in md
     assert "| mismatch, all: a listed effect named (false alarm) |" in md

@@ -173,3 +173,17 @@ def test_a_move_along_the_predicted_one_toward_the_experiment_confirms_it():
     away = judge_confirmation("cohesion", "Cohesion", before, away_after, names, np.eye(4), 3, {},
                               predicted=np.array([0.0, 0.0, 0.0, 2.5]))
     assert away.outcome != CONFIRMED and math.isnan(away.as_predicted)
+
+
+def test_an_unseen_candidate_is_not_named_where_only_the_held_out_features_show_a_gap():
+    """A mismatch that shows only on the held-out features, with a candidate they cannot see: it
+    would explain nothing that is there."""
+    from calibrax.diagnosis.verdict import UNSEEN_NO_GAP, BaselineTest
+
+    b = [_gap(n, 6.0) for n in HELD]
+    blind = judge_confirmation("size_distribution", "Size distribution", b, b, HELD, np.eye(3), 3, {},
+                               predicted=np.array([0.1, 0.0, -0.1]))
+    every = BaselineFit(FITS.features + HELD, 120.0, 5, np.array([0.5, 1.2, -1.0, 0.3, 6.0, 6.0, 6.0]))
+    v = decide(_ranking("size_distribution"), BaselineTest(FITS, every), lambda effect: blind)
+    assert v.name == NONE_OF_THEM and v.confirmations[0].outcome == UNSEEN_NO_GAP
+    assert "explains nothing" in v.reason

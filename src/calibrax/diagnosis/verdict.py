@@ -28,8 +28,9 @@ The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict d
    it without moving toward the experiment where the design emulator predicted that the
    recalibration moves the held-out features beyond that noise (``VISIBLE_Z``; not shrunk).
    Where it predicted no such move, the held-out features cannot see the candidate and its
-   confirmation can neither bear it out nor refute it (unseen): the candidate is named on the
-   design's evidence, said to be unconfirmed, and the held-out gap it leaves flagged as an
+   confirmation can neither bear it out nor refute it (unseen): where the fit features show a gap
+   (its evidence lies there), the candidate is named on the design's evidence, said to be
+   unconfirmed, and the held-out gap it leaves flagged as an
    effect outside the candidates (a size distribution shows in the densities, which the
    recalibration is fitted on, and barely in the flow and the shape it is judged on; where an
    unlisted effect makes the held-out gap, refusing the size distribution would refuse the
@@ -53,6 +54,7 @@ claimed to explain.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -80,6 +82,8 @@ TOWARD_Z = 1.645
 VISIBLE_Z = 2.0
 
 CONFIRMED, WORSE, NOT_SHRUNK, UNSEEN = "confirmed", "worse", "not shrunk", "unseen"
+#: unseen by the held-out features where the fit features show no gap: it explains nothing there is
+UNSEEN_NO_GAP = "unseen, no gap on the fit features"
 
 
 @dataclass(frozen=True)
@@ -113,6 +117,11 @@ class BaselineFit:
         """Whether the baseline misfits the fit features beyond the noise."""
         return bool(self.beyond) or self.p_value < BASELINE_ADEQUACY
 
+    @property
+    def fit_misfits(self) -> bool:
+        """The same (one test, on the fit features)."""
+        return self.misfits
+
     def detail(self) -> str:
         return (f"{', '.join(self.beyond)} beyond |z| = {IMPLAUSIBLE_Z:g}" if self.beyond
                 else f"χ² {self.chi2:.1f} on {self.dof} degrees of freedom, p = {self.p_value:.2g}")
@@ -137,6 +146,11 @@ class BaselineTest:
     @property
     def misfits(self) -> bool:
         return self.fit.misfits or self.every.misfits
+
+    @property
+    def fit_misfits(self) -> bool:
+        """Whether the fit features alone show a gap (where an unseen candidate's evidence lies)."""
+        return self.fit.misfits
 
     def words(self) -> str:
         if self.fit.misfits or self.every.features == self.fit.features:
@@ -216,6 +230,10 @@ class Confirmation:
             f" ({self.as_predicted:.1f} along the design's prediction)" if math.isfinite(self.as_predicted) else "")
         if self.outcome == WORSE:
             return f"recalibrated with {self.label}, {change}: worse beyond the noise, so its own confirmation refutes it"
+        if self.outcome == UNSEEN_NO_GAP:
+            return (f"recalibrated with {self.label}, {change}: the held-out features cannot see it (a predicted move "
+                    f"of {self.visible:.1f} s.d. of the comparison's noise), and the fit features, where its evidence "
+                    "lies, show no gap: it explains nothing that is there")
         if self.outcome == UNSEEN:
             return (f"recalibrated with {self.label}, {change}: still beyond the noise, but the design predicts a move "
                     f"of the held-out features of only {self.visible:.1f} s.d. of the comparison's noise (it would "
@@ -431,6 +449,10 @@ def decide(ranking: Ranking, baseline: BaselineFit | BaselineTest | None, confir
     for model in tried:
         result = confirm(model.name)
         done.append(result)
+        if result.outcome == UNSEEN and not baseline.fit_misfits:
+            # its evidence lies in the fit features, and they show no gap: it explains nothing there is
+            result = dataclasses.replace(result, outcome=UNSEEN_NO_GAP)
+            done[-1] = result
         if result.stands:
             left = tuple(ranking.unexplained if model.name == ranking.verdict else ())
             if result.gap_left:
