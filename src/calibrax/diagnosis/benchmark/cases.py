@@ -84,9 +84,9 @@ MISMATCH_CLASSES = (CLASS_MISMATCH, CLASS_MISMATCH_LISTED)
 #: the model's. The fixed preshear of 0.12 rad is what every preset ran before the steady preshear
 #: (its preshears end inside the transient, docs/explanation/seed-noise.md); half the rate is a
 #: slower instrument, three times it a faster one (the peaks' τ/σ still moves with the rate at
-#: `quick`: README, "Convergence at quick"); eight times it leaves the quasi-static regime (the
-#: inertial number from about 0.003 at `tiny`'s 6 rad/s to about 0.02, where τ/σ grows with I:
-#: GDR MiDi 2004, "On dense granular flows", Eur. Phys. J. E 14, 341), a mismatch well beyond the
+#: `quick`: README, "Convergence at quick"); eight times it multiplies the inertial number by eight
+#: (`quick`'s is 0.002 at 5 rad/s: README), toward the dense-flow range where τ/σ grows with I
+#: (GDR MiDi 2004, "On dense granular flows", Eur. Phys. J. E 14, 341), a mismatch well beyond the
 #: noise for the benchmark's "none of the candidates"; LIGGGHTS has no compressibility ramp, so its truth
 #: runs without one and takes the model's engine's compressibility and conditioned bulk density
 MISMATCHES: dict[str, dict[str, Any]] = {

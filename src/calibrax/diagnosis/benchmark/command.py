@@ -135,7 +135,10 @@ def _emulator_level(bench, design, per_class, cases, given, seed, out):
     out.mkdir(parents=True, exist_ok=True)
     write_labels(labels, out / "labels.yaml")
     found = em.run_emulated(truth, labels, seed, progress=progress)
-    words = f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of {Path(design or em.DEFAULT_DESIGN).name})"
+    rows = em.load_design(design)["rows"]
+    blocks = sum(1 for r in rows if r.get("mismatch"))
+    words = (f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of "
+             f"{Path(design or em.DEFAULT_DESIGN).name}" + (f" and {blocks} of its mismatch blocks" if blocks else "") + ")")
     return found, labels, words, markdown(table_of(truth), "What the shipped model's test can see").split("\n", 2)[2]
 
 
