@@ -132,11 +132,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("diagnose-benchmark", help="score the diagnosis blind, on cases whose effect is withheld",
                            description="Make cases with one hidden effect (small, medium, large), controls with "
-                                       "none and cases with an effect outside the candidate list, diagnose each from "
-                                       "its data alone, and score the answers against a labels file the diagnosis "
-                                       "never reads: top-1 and top-2 accuracy, the confusion matrix, false alarms, "
-                                       "unlisted effects rejected, the recovered magnitude's error and the held-out "
-                                       "shrinkage against the oracle's. Writes DIR/scores.md, scores.json, "
+                                       "none, cases with an effect outside the candidate list and (emulator level) "
+                                       "cases made with a procedure or an engine the design never saw, diagnose each "
+                                       "from its data alone, and score the answers against a labels file the "
+                                       "diagnosis never reads: top-1 and top-2 accuracy, the confusion matrix, false "
+                                       "alarms, unlisted effects rejected, mismatches answered \"none of the "
+                                       "candidates\" beyond the noise, the recovered magnitude's error and the "
+                                       "held-out shrinkage against the oracle's. Writes DIR/scores.md, scores.json, "
                                        "confusion.png, answers.json and labels.yaml. docs/explanation/diagnosis-benchmark.md.")
     bench.add_argument("--level", default="emulator", choices=["emulator", "dem"],
                        help="emulator: a response surface of the shipped DEM design stands in for the simulator "

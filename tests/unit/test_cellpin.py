@@ -41,11 +41,11 @@ def test_a_preset_that_changed_its_procedure_is_stale_field_by_field():
     assert "0.12 when made" in lines[1] and "0.3 in 'tiny' now" in lines[1]
 
 
-def _experiment(tmp_path, cell: dict):
+def _experiment(tmp_path, cell: dict, source: str = "PSEUDO-EXPERIMENT, NOT MEASURED DATA. Made by numba_dem."):
     (tmp_path / "old-points.csv").write_text("normal_stress_pa,peak_shear_stress_pa,replicate\n"
                                              "9000,5000,1\n8000,4600,1\n7000,4100,1\n6000,3700,1\n")
     header = tmp_path / "old.yaml"
-    header.write_text(yaml.safe_dump({"name": "old", "points": "old-points.csv", "cell": cell}))
+    header.write_text(yaml.safe_dump({"name": "old", "source": source, "points": "old-points.csv", "cell": cell}))
     return header
 
 
@@ -64,7 +64,17 @@ def test_a_header_from_before_cells_were_pinned_warns_that_it_cannot_be_checked(
     assert any("cell.resolved" in r.getMessage() for r in caplog.records)
 
 
-def test_a_measured_experiment_naming_no_preset_is_quiet(tmp_path, caplog):
+def test_a_measured_experiment_naming_its_cell_for_the_record_is_quiet(tmp_path, caplog):
     with caplog.at_level(logging.WARNING, logger="calibrax"):
-        exp = load_experiment(_experiment(tmp_path, {"instrument": "FT4"}))
+        exp = load_experiment(_experiment(tmp_path, {"preset": "quick"}, source="FT4, lab 2, 2026-11-01"))
+    assert exp.stale_cell == () and not caplog.records
+
+
+def test_the_bundled_pseudo_experiment_is_pinned_and_resolves_the_same(caplog):
+    """Its header's spec hash is today's tiny's: the pin was added from that resolution."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "data" / "pseudo-numba-tiny.yaml"
+    with caplog.at_level(logging.WARNING, logger="calibrax"):
+        exp = load_experiment(path)
     assert exp.stale_cell == () and not caplog.records

@@ -74,12 +74,13 @@ def cell_pin(spec: ShearCellSpec) -> dict[str, Any]:
             fields_hash(fields), "overrides": overrides, "resolved": fields}
 
 
-def stale_fields(cell: dict[str, Any]) -> list[str]:
+def stale_fields(cell: dict[str, Any], made: bool = True) -> list[str]:
     """The header's ``cell`` against its preset as it resolves now: one line per pinned field that
     changed (``cell.resolved.procedure.preshear_rotation: 0.12 when made (calibrax 0.4), 0.3 now``);
-    one line naming ``cell.resolved`` where a known preset was recorded without its fields (made
-    before cells were pinned), so nothing can be checked; empty where it resolves the same or the
-    cell is not a preset's."""
+    for made data (``made``: a pseudo-experiment), one line naming ``cell.resolved`` where a known
+    preset was recorded without its fields (made before cells were pinned), so nothing can be
+    checked; empty where it resolves the same, the cell is not a preset's, or measured data name
+    a preset for the record."""
     preset = cell.get("preset")
     if not isinstance(preset, str):
         return []
@@ -89,6 +90,8 @@ def stale_fields(cell: dict[str, Any]) -> list[str]:
     if now is None:
         return []
     if not isinstance(resolved, dict):
+        if not made:
+            return []
         return [f"cell.resolved: missing, so the preset {preset!r} it names cannot be checked: the data were made "
                 f"before cells were pinned, with {preset!r} as it resolved then, which may not be {preset!r} now"]
     version = cell.get("calibrax_version", "unknown")
