@@ -68,7 +68,7 @@ def markdown(d: Diagnosis) -> str:
         interval = ", ".join(f"{lo:.3g} to {hi:.3g}" for lo, hi in m.effect_interval.values()) or "–"
         lines.append(f"| {m.label} | {m.probability:.3f} | {m.log_evidence:.2f} | {best} | {interval} | "
                      f"{m.max_abs_z:.2f} | {'; '.join(m.prior_text) or '–'} |")
-    lines += ["", "## 3. How far it shrinks", "", *_confirmations(d)]
+    lines += ["", "## 3. Does it survive its confirmation", "", *_confirmations(d)]
     if not d.judge_on:
         lines.append(f"No recalibration: every feature the experiment has ({', '.join(d.features)}) is in the groups "
                      f"it would be fitted to ({', '.join(d.fit_on)}), so none is left to judge it on. τ curves or a "

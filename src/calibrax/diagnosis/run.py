@@ -11,7 +11,8 @@
    before and after is compared on the *other* groups (the τ curves' flow and shape by default),
    which played no part in that fit.
 4. **The verdict.** A candidate is named only where that confirmation bears it out, and only
-   where the model without any effect misfits the fit features beyond the noise; otherwise the
+   where the model without any effect misfits beyond the noise (on the fit features or on every
+   feature); otherwise the
    answer is "none" or "none of the candidates", with the best candidate and why it failed
    (:mod:`calibrax.diagnosis.verdict`).
 
