@@ -385,10 +385,14 @@ def rank(target: Target, design: Design, candidates: list[CandidateSpace], seed:
                   f"|z| = {IMPLAUSIBLE_Z:g} at its best fit: an effect outside the candidates acts beside it")
     elif worst:
         verdict = NONE_OF_THEM
+        why = ""
+        if top.name != NO_EFFECT and new_misfits:
+            why = (f" (it removes {explained:.0%} of no effect's χ², but by putting {', '.join(new_misfits)} beyond "
+                   f"|z| = {IMPLAUSIBLE_Z:g}, which no effect fitted)")
+        elif top.name != NO_EFFECT:
+            why = f" (it removes only {explained:.0%} of no effect's χ², < {MIN_EXPLAINED:.0%})"
         reason = (f"the best model ({top.label}, p = {top.probability:.2f}) still leaves "
-                  f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit"
-                  + (f" (it removes only {explained:.0%} of no effect's χ², < {MIN_EXPLAINED:.0%})"
-                     if top.name != NO_EFFECT else ""))
+                  f"{', '.join(worst)} beyond |z| = {IMPLAUSIBLE_Z:g} at its best fit" + why)
     elif top.name == NO_EFFECT:
         verdict = NO_EFFECT
         reason = (f"no effect: the gap is within the noise (no candidate's Bayes factor against no effect reaches "
