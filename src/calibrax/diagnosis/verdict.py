@@ -275,27 +275,19 @@ def _null_z(before: list[gaps.FeatureGap], corr: np.ndarray, n_after: int, seed:
     return (draws - np.array([g.experiment_mean for g in before])) / _stderr_after(before, n_after)
 
 
-def null_interval(before: list[gaps.FeatureGap], corr: np.ndarray, n_after: int,
-                  seed: int = 0) -> tuple[float, float]:
-    """The :data:`NULL_QUANTILES` of the held-out gap after a recalibration that changed nothing.
-
-    Args:
-        before: the held-out features' gaps at the calibrated point.
-        corr: their residual correlation, shape (k, k), in the order of ``before``.
-        n_after: the confirmation's seeds.
-    """
-    if not before or n_after < 1:
-        return math.nan, math.nan
-    rms = np.sqrt(np.mean(_null_z(before, corr, n_after, seed) ** 2, axis=1))
+def null_interval(null_z: np.ndarray) -> tuple[float, float]:
+    """The :data:`NULL_QUANTILES` of the held-out gap after a recalibration that changed nothing,
+    from :func:`_null_z`'s draws, shape (NULL_DRAWS, k)."""
+    rms = np.sqrt(np.mean(null_z ** 2, axis=1))
     low, high = np.quantile(rms, NULL_QUANTILES)
     return float(low), float(high)
 
 
-def toward_experiment(before: list[gaps.FeatureGap], after: list[gaps.FeatureGap], corr: np.ndarray,
-                      n_after: int, seed: int = 0) -> float:
+def toward_experiment(before: list[gaps.FeatureGap], after: list[gaps.FeatureGap], n_after: int,
+                      null_z: np.ndarray) -> float:
     """How far the recalibration brought the held-out features toward the experiment: the sum over
     them of |z| before − |z| after (each in the after's standard errors), standardised by its mean
-    and s.d. if the recalibration changed nothing (see the module docstring). A feature far off
+    and s.d. under :func:`_null_z`'s draws ``null_z`` (see the module docstring). A feature far off
     that no candidate explains adds its noise, not its square, so a candidate that brings its own
     features in is seen beside it. ``after`` in the order of ``before``."""
     se = _stderr_after(before, n_after)
@@ -304,7 +296,7 @@ def toward_experiment(before: list[gaps.FeatureGap], after: list[gaps.FeatureGap
     z_after = np.abs((np.array([g.sim_mean for g in after]) - e_mean) / se)
     if not np.all(np.isfinite(z_after)):
         return math.nan
-    null = np.sum(z_before - np.abs(_null_z(before, corr, n_after, seed)), axis=1)
+    null = np.sum(z_before - np.abs(null_z), axis=1)
     sd = float(np.std(null))
     return float((np.sum(z_before - z_after) - np.mean(null)) / sd) if sd > 0 else math.nan
 
@@ -356,9 +348,11 @@ def judge_confirmation(effect: str, label: str, before: list[gaps.FeatureGap], a
     held_after = [g for n in judge for g in after if g.name == n]
     limit = gaps.noise_gap_limit(len(held_before))
     b, a = gaps.gap_size(held_before), gaps.gap_size(held_after)
-    low, high = null_interval(held_before, corr, n_after, seed)
-    toward = (toward_experiment(held_before, held_after, corr, n_after, seed) if len(held_after) == len(held_before)
-              else math.nan)
+    # one set of null draws serves both the RMS band and the move toward the experiment
+    null_z = _null_z(held_before, corr, n_after, seed) if held_before and n_after >= 1 else None
+    low, high = null_interval(null_z) if null_z is not None else (math.nan, math.nan)
+    toward = (toward_experiment(held_before, held_after, n_after, null_z)
+              if null_z is not None and len(held_after) == len(held_before) else math.nan)
     along = (along_prediction(held_before, held_after, predicted, corr, n_after)
              if predicted is not None and len(held_after) == len(held_before) else math.nan)
     if not math.isfinite(a):

@@ -121,7 +121,8 @@ def _emulator_level(bench, design, per_class, cases, given, seed, out):
     from calibrax.diagnosis.sensitivity import markdown, table_of
     from calibrax.diagnosis.benchmark.cases import write_labels
 
-    truth = em.TruthEmulator.fit(bench, em.load_design(design)["rows"])
+    rows = em.load_design(design)["rows"]
+    truth = em.TruthEmulator.fit(bench, rows)
     progress = _progress_log("diagnose-benchmark")
     if cases is not None:
         experiments = _read_cases(cases, given, bench)
@@ -135,7 +136,6 @@ def _emulator_level(bench, design, per_class, cases, given, seed, out):
     out.mkdir(parents=True, exist_ok=True)
     write_labels(labels, out / "labels.yaml")
     found = em.run_emulated(truth, labels, seed, progress=progress)
-    rows = em.load_design(design)["rows"]
     blocks = sum(1 for r in rows if r.get("mismatch"))
     words = (f"emulator level ({len(labels)} cases from {truth.n_rows} simulations of "
              f"{Path(design or em.DEFAULT_DESIGN).name}" + (f" and {blocks} of its mismatch blocks" if blocks else "") + ")")
