@@ -170,7 +170,8 @@ def test_crosscheck_table_shows_peaks_density_c_aif_and_agreement_per_backend(cr
         assert 0.05 < float(friction) < 2.0, row
     for case in MICRO_CASES:
         assert f"| {case} |" in text
-    assert "Known differences of the contact laws" in text or "**no**" not in text.split("## Micro-level")[1]
+    # YADE's documented differences disagree by construction (test_micro_level_checks_exist_...): explained
+    assert "**no**: known difference of yade" in text and "Known differences of the contact laws" in text
 
 
 # ----------------------------------------------------------------------------- converge
@@ -189,8 +190,14 @@ def test_converge_on_two_particle_counts_writes_table_figure_and_a_verdict(tmp_p
     text = (out / "converge.md").read_text()
     assert "particles_per_diameter=7" in text and "particles_per_diameter=9" in text
     verdict = next(line for line in text.splitlines() if line.startswith("**particles_per_diameter:"))
-    assert ("the cheapest setting is 7: its C, AIF, bulk density and peak and preshear τ/σ lie within" in verdict
-            or "the cheapest setting is the finest, 9: no coarser setting" in verdict), verdict
+    # the verdict names 7 exactly when the table finds 7 within the finest's uncertainty (one seed
+    # each: which one it is depends on the draws, what the verdict says about it does not)
+    coarse_row = next(line for line in text.splitlines() if line.startswith("| particles_per_diameter=7 |"))
+    if coarse_row.rstrip(" |").endswith("yes"):
+        assert "the cheapest setting is 7: its C, AIF, bulk density and peak and preshear τ/σ lie within" in verdict
+    else:
+        assert coarse_row.rstrip(" |").endswith("no"), coarse_row
+        assert "the cheapest setting is the finest, 9: no coarser setting" in verdict, verdict
     store = CampaignStore(out / "converge.h5")
     counts = sorted(store.result(p.id, 0).provenance.particle_count for p in store.points())
     assert counts[0] < counts[1]

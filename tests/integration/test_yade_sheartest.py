@@ -64,7 +64,7 @@ def test_steps_and_conventions(smoke):
             assert np.all(np.isfinite(getattr(step, ch)))
         if step.kind == "shear":
             assert step.rotation[0] >= 0 and step.rotation[-1] == pytest.approx(spec.procedure.shear_rotation, rel=0.1)
-        # the servo holds σ on average (DESIGN §3: within a few per cent)
+        # the servo holds σ on average (docs/explanation/shear-test.md: within a few per cent)
         assert np.mean(step.normal_stress) == pytest.approx(step.target_stress, rel=0.15)
         # the head sits inside the cell (its blades in the bed, its disc on the bed's top; the poured
         # bed is looser than fill_solid_fraction)

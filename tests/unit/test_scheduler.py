@@ -19,16 +19,17 @@ class ThreadExecutorDouble:
     """Test double of an executor: runs ``behaviour(task)`` on a thread pool (the real executors
     run an engine in an isolated process); the gate holds every task until the test opens it."""
 
-    capacity = 2
-
-    def __init__(self, behaviour):
-        self.pool = cf.ThreadPoolExecutor(2)
+    def __init__(self, behaviour, workers: int = 2):
+        self.capacity = workers
+        self.pool = cf.ThreadPoolExecutor(workers)
         self.behaviour = behaviour
         self.gate = threading.Event()
+        self.taken = threading.Event()  # set once a worker has taken a task
         self.shut = None
 
     def submit(self, task):
         def run():
+            self.taken.set()
             self.gate.wait(10)
             return self.behaviour(task)
         return self.pool.submit(run)
@@ -75,15 +76,18 @@ def test_every_outcome_comes_back_once_with_failures_as_data():
 
 
 def test_a_queued_simulation_has_not_started_and_a_key_is_taken_once():
-    executor = ThreadExecutorDouble(_behaviour)
-    executor.capacity = 1
+    executor = ThreadExecutorDouble(_behaviour, workers=1)
     scheduler = Scheduler(executor)
     scheduler.submit(_task(0), key="a")
+    scheduler.submit(_task(0), key="b")  # queued behind "a" on the one worker
     with pytest.raises(ValueError, match="already in flight"):
         scheduler.submit(_task(0), key="a")
-    assert scheduler.started_at("a") is None or scheduler.started_at("a") > 0
+    assert scheduler.started_at("a") is None  # not seen started before a wait looks
+    assert executor.taken.wait(5.0)
+    assert scheduler.wait(timeout=0.2) == []  # "a" is held at the gate
+    assert scheduler.started_at("a") > 0 and scheduler.started_at("b") is None
     executor.gate.set()
     while scheduler:
         scheduler.wait(timeout=2.0)
-    assert scheduler.started_at("a") is None  # forgotten once returned
+    assert scheduler.started_at("a") is None and scheduler.started_at("b") is None  # forgotten once returned
     scheduler.shutdown()

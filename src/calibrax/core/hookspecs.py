@@ -1,5 +1,5 @@
 """Hook specifications: one hook per kind of plugin (the interfaces every plugin implements;
-``calibrax.plugins.hookspecs`` re-exports them for plugins written against it).
+``calibrax.hookimpl`` and ``calibrax.plugins.hookimpl`` are the same marker).
 
 A plugin is a module (or object) with functions marked ``@calibrax.hookimpl`` that return a list
 of *classes* of the kind; each class has a ``name`` attribute that users write in campaign files.

@@ -1,5 +1,5 @@
 """``calibrax diagnose``: where the sim-to-real gap lies, which unmodelled effect causes it, and how
-far it shrinks once that effect is added (DESIGN §6).
+far it shrinks once that effect is added (docs/explanation/diagnosis.md).
 
 It reaches simulators only through the Simulator protocol and ``capabilities()``, and runs its
 simulations through the study machinery, so it resumes and scales like a campaign. The library

@@ -8,7 +8,7 @@ particles' upward force F_p, with a damper that acts only on the *fast* part of 
 Because the damper pushes against v − v_ref rather than v, a steady drift (the bed dilating or
 compacting under shear) costs no force, so the time-averaged F_p equals F* (Newton), while the
 head–bed oscillation (period 2π√(M/k_bed)) is damped. This is the "head as a rigid body under the
-target load with its own mass and damping" of DESIGN §3, which a proportional velocity servo is
+target load with its own mass and damping" (docs/explanation/shear-test.md), which a proportional velocity servo is
 not. The speed limit keeps the approach gentle (the head is never driven blindly into the bed).
 
 Integrating the law over a recording window of length T (speed limit inactive) gives its mean

@@ -1,58 +1,12 @@
 """Convert the spec's material into YADE ``Ip2_FrictMat_FrictMat_MindlinPhys`` parameters that
-reproduce LIGGGHTS' ``model hertz tangential history rolling_friction epsd2`` as closely as YADE
-2023.02 allows.
+reproduce LIGGGHTS' ``model hertz tangential history rolling_friction epsd2`` (numba_dem's law) as
+closely as YADE 2023.02 allows.
 
-What YADE computes (pkg/dem/HertzMindlin.cpp), for materials a, b and a contact of "radii" Da, Db:
-
-* E_y = E_a E_b / ((1−ν_a²) E_b + (1−ν_b²) E_a); 1/G_y = (2−ν_a)/G_a + (2−ν_b)/G_b
-  (measured on the installed 2023.02a: its k_so is 8 G_y √R, not the trunk source's
-  2√(4R) (G_a+G_b)/2 / (2 − (ν_a+ν_b)/2); both agree for a single material);
-  R = Da Db/(Da + Db); R_mean = (Da + Db)/2;
-* F_n = k_no δ^{3/2}, k_no = 4/3 E_y √R; k_s = k_so √δ, k_so = 8 G_y √R;
-* with ``en`` (measured on 2023.02a, as in its source): c_n = 2 β_n √(m̄ k_n), k_n = 3/2 k_no √δ,
-  β_n from Thornton et al. (2013)'s fit of e for a no-tension law, and the damped normal force
-  clipped at zero; c_s = 2 β_s √(m̄ k_s), β_s from ``es`` by the same fit (β_s = 0 for es = 1;
-  m̄ = m of the particle against a fixed body), added to the elastic shear force only while the
-  contact sticks and not bounded by the Coulomb limit. The older
-  α = −2√(5/6) ln e/√(ln²e + π²) √(2 E_y √R) form (LIGGGHTS' dashpot) is gone;
-* rolling (``includeMoment``): M_b −= k_r Δθ_bend, |M_b| ≤ η R_mean |F_n|; twisting k_tw.
-
-LIGGGHTS (and numba_dem): E* = E/(2(1−ν²)), G* = E/(4(2−ν)(1+ν)), k_n = 4/3 E* √(R*δ),
-k_t = 8 G* √(R*δ), γ_{n,t} = −2√(5/6) β √(S_{n,t} m*), S_n = 2E*√(R*δ), S_t = k_t,
-β = ln e/√(ln²e + π²); EPSD2: k_r = k_t R*² (LIGGGHTS 3.8's rolling_model_epsd2.h; the original
-EPSD's 2.25 k_n μr² R*² is 2.3× softer at μr = 0.5), |M_r| ≤ μr R* |F_n|; walls: R* = r, m* = m.
-
-Particle–particle (Da, Db = r_i, r_j): with the particles' own E and ν, k_no, k_so and c_n are
-exactly LIGGGHTS' (E_y = E*, G_y = G*).
-
-Particle–facet: YADE's facet contact has Da = 2r, Db = r, so R = 2r/3 instead of LIGGGHTS' wall
-R* = r. The facets therefore get a *fictitious* material (E_w, ν_w), solved so that k_no and k_so
-of a facet contact equal LIGGGHTS' wall values (c_n then follows exactly, since α ∝ √(E_y √R)).
-
-Remaining differences (also in the README):
-
-1. damping: with ``en = es = e`` YADE's β_n = β_s = Thornton's β(e) > LIGGGHTS' −√(5/6) β
-   (0.454 against 0.327 at e = 0.3), and its damped normal force never turns attractive. The
-   restitution is the same, but a damped impact lasts longer and goes less deep (two spheres at
-   e = 0.3: contact time +3.7 %, peak overlap −11 %; ``verification.damped_hertz_impact``). YADE
-   2023.02 has no unclipped law: LIGGGHTS' dashpot (``betan = −√(5/6) β``) with the clipping
-   would give e = 0.40 for e = 0.3, so ``en`` is kept (the calibrated parameter is e);
-2. (see 1) the clipping; and **no tangential dashpot** (``es = 1``, β_s = 0; LIGGGHTS:
-   γ_t = −2√(5/6) β √(k_t m*)). YADE's tangential dashpot is not bounded by the Coulomb limit
-   and is switched off while the contact slides; with β_s = β_n (``es = e``, 0.454 at e = 0.3),
-   and still with LIGGGHTS' 0.327, it made a bed loaded at the preshear stress unstable at the
-   spec's time step (0.2 Δt_crit): particles spinning, ~30 % of the contacts sliding and ~20 %
-   at their rolling limit throughout the bed, the head's load relaxing by 80 % within 2 ms when
-   held still, and the head sinking steadily at constant σ (it never met the consolidation's stop
-   rule). β_s ≤ 0.2 or half the time step cured it; β_s = 0 is used (see :data:`SHEAR_RESTITUTION`);
-3. rolling stiffness: YADE's k_r is a constant, set here to EPSD2's k_r at the Hertz overlap of a
-   particle pair carrying σ_pre (2r)² (the preshear stress), instead of following δ;
-4. rolling limit: η = μr/2 makes η R_mean = μr R* exact for equal spheres; for unequal ones YADE's
-   limit is (r_i + r_j)²/(4 r_i r_j) ≥ 1 times LIGGGHTS'; on facets it is 0.75 μr r
-   (LIGGGHTS: μr r). YADE has one η for every contact, so a lateral wall without friction would
-   keep it; the script takes it off that wall's contacts (numba_dem and LIGGGHTS have none there,
-   and with it the vessel carried a fifth of the head's torque);
-5. no twisting resistance in either (k_tw = 0).
+The rule: particle–particle stiffness and damping are LIGGGHTS' exactly; facets get a fictitious
+material whose k_no and k_so equal LIGGGHTS' wall values; what YADE cannot match (its clipped,
+Thornton-fitted normal damping, no tangential dashpot, a constant rolling stiffness, its rolling
+limit on unequal spheres and facets, no twisting) is listed, numbered, with the measurements behind
+it, in docs/explanation/yade-contact-law.md.
 """
 
 from __future__ import annotations
@@ -66,7 +20,7 @@ __all__ = ["YadeContactParams", "contact_params", "facet_material", "effective_m
            "SHEAR_RESTITUTION"]
 
 #: ``es`` given to ``Ip2_FrictMat_FrictMat_MindlinPhys``: 1 makes β_s = 0, i.e. no tangential dashpot
-#: (difference 2 in the module docstring: YADE's unbounded tangential dashpot destabilises a loaded bed)
+#: (difference 2 of docs/explanation/yade-contact-law.md: YADE's unbounded tangential dashpot destabilises a loaded bed)
 SHEAR_RESTITUTION = 1.0
 
 
@@ -117,7 +71,7 @@ class YadeContactParams:
 
 
 def contact_params(spec: ShearCellSpec) -> YadeContactParams:
-    """The YADE contact parameters of ``spec`` (see the module docstring for the mapping)."""
+    """The YADE contact parameters of ``spec`` (the mapping: docs/explanation/yade-contact-law.md)."""
     m = spec.material
     e_star, g_star = effective_moduli(m.youngs_modulus, m.poisson_ratio)
     ew, nuw = facet_material(m.youngs_modulus, m.poisson_ratio)
