@@ -7,6 +7,7 @@ a short page that starts with the two commands."""
 from __future__ import annotations
 
 import dataclasses
+import html
 import os
 import re
 import shutil
@@ -74,6 +75,20 @@ def test_api_reference_is_generated_from_the_docstrings(site: Path) -> None:
                  "SimulationFailed", "build_single_file_report"):
         assert f'id="calibrax.' in text and re.search(rf'id="calibrax\.[\w.]*\b{name}"', text), \
             f"{name} has no entry generated from its docstring"
+
+
+def test_the_field_table_is_generated_from_the_declarations(site: Path) -> None:
+    """Every declared field of the spec is in the campaign file's reference with the range that
+    validation and the search boxes use (the table is written by docs/hooks/spec_fields.py)."""
+    from calibrax.core.sheartest import ShearCellSpec
+    from calibrax.core.sheartest.fields import declared_fields
+
+    text = html.unescape(page(site, "reference/campaign-file"))
+    for path, info in declared_fields(ShearCellSpec):
+        assert f"<code>{path}</code>" in text, f"{path} is not in the generated field table"
+        if info.numeric:
+            assert info.interval() in text, (path, info.interval())
+    assert "<!-- spec-fields -->" not in text
 
 
 def test_campaign_reference_names_every_key() -> None:

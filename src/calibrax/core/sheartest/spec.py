@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from calibrax.core.sheartest.fields import declared, set_paths
 from calibrax.core.sheartest.physics import critical_time_step
 from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
 from calibrax.errors import SpecError
@@ -23,6 +24,12 @@ from calibrax.errors import SpecError
 #: (group, field) of spec fields added after specs were hashed, with their defaults
 ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0,
                                                   ("procedure", "compressibility_stresses"): ()}
+
+
+#: the declarations that many fields share (:class:`~calibrax.core.sheartest.fields.FieldInfo`)
+_LENGTH = {"unit": "m", "low": 0.0, "low_open": True, "display_scale": 1e3, "display_unit": "mm"}
+_FRICTION = {"low": 0.0, "high": 5.0, "calibratable": True}
+_ROTATION = {"unit": "rad", "low": 0.0, "low_open": True}
 
 
 @dataclass(frozen=True)
@@ -44,14 +51,18 @@ class Material:
             cohesion parameter. 0 = none (the default); set this or ``cohesion_energy_density``.
     """
 
-    youngs_modulus: float = 25.0e9
-    poisson_ratio: float = 0.25
-    restitution: float = 0.3
-    sliding_friction: float = 0.5
-    rolling_friction: float = 0.5
-    density: float = 3000.0
-    cohesion_energy_density: float = 0.0
-    bond_number: float = 0.0
+    youngs_modulus: float = declared(25.0e9, unit="Pa", symbol="E", low=1.0e5, high=1.0e13, calibratable=True,
+                                     display_scale=1e-9, display_unit="GPa")
+    poisson_ratio: float = declared(0.25, symbol="ν", low=0.0, high=0.5, high_open=True, calibratable=True)
+    restitution: float = declared(0.3, symbol="e", low=0.0, high=1.0, low_open=True, calibratable=True)
+    sliding_friction: float = declared(0.5, symbol="μs", low=0.0, high=5.0, calibratable=True)
+    rolling_friction: float = declared(0.5, symbol="μr", low=0.0, high=5.0, calibratable=True)
+    density: float = declared(3000.0, unit="kg/m³", symbol="ρ", low=1.0, high=1.0e5, calibratable=True)
+    cohesion_energy_density: float = declared(0.0, unit="J/m³", symbol="k_coh", low=0.0, high=1.0e9,
+                                              calibratable=True, display_scale=1e-3, display_unit="kJ/m³",
+                                              capability="cohesion", off=0.0)
+    bond_number: float = declared(0.0, symbol="Bo", low=0.0, high=100.0, calibratable=True, capability="cohesion",
+                                  off=0.0)
 
     @property
     def reduced_modulus(self) -> float:
@@ -71,10 +82,11 @@ class SizeDistribution:
         fractions: table number fractions (``table`` only), summing to 1.
     """
 
-    kind: Literal["mono", "lognormal", "table"] = "mono"
-    sigma_log: float = 0.0
-    min_ratio: float = 0.5
-    max_ratio: float = 2.0
+    kind: Literal["mono", "lognormal", "table"] = declared("mono", unit="", capability="size_distribution",
+                                                           off="mono")
+    sigma_log: float = declared(0.0, symbol="σ_ln r", low=0.0, high=1.0, calibratable=True)
+    min_ratio: float = declared(0.5, symbol="r_min/R", low=0.0, high=1.0, low_open=True)
+    max_ratio: float = declared(2.0, symbol="r_max/R", low=1.0)
     radii: tuple[float, ...] = ()
     fractions: tuple[float, ...] = ()
 
@@ -115,19 +127,19 @@ class Geometry:
     friction and to 0 when it has none (:meth:`ShearCellSpec.effective_wall_rolling_friction`).
     """
 
-    vessel_diameter: float = 61.2e-3
-    fill_height: float = 53.9e-3
-    head_radius: float = 29.4e-3
-    blade_count: int = 18
-    blade_height: float = 3.6e-3
-    hub_radius: float = 3.0e-3
-    wall_friction: float = 0.0
-    wall_rolling_friction: float | None = None
-    base_friction: float | None = None
-    base_rolling_friction: float | None = None
-    head_friction: float | None = None
-    base_ribs: int = 18
-    rib_height: float = 1.8e-3
+    vessel_diameter: float = declared(61.2e-3, **_LENGTH, symbol="D")
+    fill_height: float = declared(53.9e-3, **_LENGTH, symbol="H")
+    head_radius: float = declared(29.4e-3, **_LENGTH, symbol="R_h")
+    blade_count: int = declared(18, symbol="n_b", low=1, integer=True)
+    blade_height: float = declared(3.6e-3, **_LENGTH, symbol="h_b")
+    hub_radius: float = declared(3.0e-3, **_LENGTH, symbol="r_hub")
+    wall_friction: float = declared(0.0, **_FRICTION, symbol="μw", capability="wall_friction", off=0.0)
+    wall_rolling_friction: float | None = declared(None, **_FRICTION, symbol="μr,w", optional=True)
+    base_friction: float | None = declared(None, **_FRICTION, symbol="μb", optional=True)
+    base_rolling_friction: float | None = declared(None, **_FRICTION, symbol="μr,b", optional=True)
+    head_friction: float | None = declared(None, **_FRICTION, symbol="μh", optional=True)
+    base_ribs: int = declared(18, symbol="n_r", low=0, integer=True, capability="base_ribs", off=0)
+    rib_height: float = declared(1.8e-3, **_LENGTH, symbol="h_r")
 
 
 @dataclass(frozen=True)
@@ -159,17 +171,18 @@ class Procedure:
             (:attr:`ShearTestResult.compression_height`; features ``compressibility_<σ>kPa``).
     """
 
-    preshear_stress: float = 15.0e3
+    preshear_stress: float = declared(15.0e3, unit="Pa", symbol="σ_pre", low=0.0, low_open=True,
+                                      display_scale=1e-3, display_unit="kPa")
     shear_stresses: tuple[float, ...] = (9.0e3, 8.0e3, 7.0e3, 6.0e3)
-    rotation_rate: float = 1.0
-    preshear_rotation: float = 0.30
-    preshear_max_rotation: float | None = None
-    steady_window: float = 0.1
-    steady_tolerance: float = 0.05
-    shear_rotation: float = 0.20
-    settle_time: float = 0.02
-    peak_window: float = 0.01
-    compressibility_stresses: tuple[float, ...] = ()
+    rotation_rate: float = declared(1.0, unit="rad/s", symbol="ω", low=0.0, low_open=True)
+    preshear_rotation: float = declared(0.30, **_ROTATION, symbol="φ_pre")
+    preshear_max_rotation: float | None = declared(None, **_ROTATION, symbol="φ_pre,max", optional=True)
+    steady_window: float = declared(0.1, **_ROTATION, symbol="Δφ_steady")
+    steady_tolerance: float = declared(0.05, symbol="tol_steady", low=0.0, low_open=True)
+    shear_rotation: float = declared(0.20, **_ROTATION, symbol="φ_shear")
+    settle_time: float = declared(0.02, unit="s", symbol="t_settle", low=0.0)
+    peak_window: float = declared(0.01, **_ROTATION, symbol="Δφ_peak")
+    compressibility_stresses: tuple[float, ...] = declared((), unit="", capability="compressibility_test", off=())
 
     @property
     def consolidation_min_time(self) -> float:
@@ -200,11 +213,11 @@ class Numerics:
         threads: threads (or MPI ranks) the backend may use.
     """
 
-    dt_fraction: float = 0.05
-    stress_for_dt: float | None = None
-    sample_interval: float = 2.0e-4
-    seed: int = 0
-    threads: int = 1
+    dt_fraction: float = declared(0.05, symbol="Δt/Δt_crit", low=0.0, high=1.0, low_open=True)
+    stress_for_dt: float | None = declared(None, unit="Pa", symbol="σ0", low=0.0, low_open=True, optional=True)
+    sample_interval: float = declared(2.0e-4, unit="s", symbol="Δt_sample", low=0.0, low_open=True)
+    seed: int = declared(0, symbol="seed", low=0, integer=True)
+    threads: int = declared(1, symbol="threads", low=1, integer=True)
 
 
 @dataclass(frozen=True)
@@ -213,9 +226,9 @@ class ShearCellSpec:
 
     geometry: Geometry = field(default_factory=Geometry)
     material: Material = field(default_factory=Material)
-    radius: float = 0.9e-3
+    radius: float = declared(0.9e-3, **_LENGTH, symbol="R")
     size_distribution: SizeDistribution = field(default_factory=SizeDistribution)
-    fill_solid_fraction: float = 0.60
+    fill_solid_fraction: float = declared(0.60, symbol="φ_fill", low=0.3, high=0.74)
     procedure: Procedure = field(default_factory=Procedure)
     numerics: Numerics = field(default_factory=Numerics)
     name: str = "custom"
@@ -320,6 +333,12 @@ class ShearCellSpec:
         numerics = Numerics(**p["numerics"])
         spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
         return spec.replace(**overrides)
+
+    def with_values(self, values: dict[str, Any]) -> "ShearCellSpec":
+        """A copy with each dotted path of ``values`` set (``{"geometry.wall_friction": 0.3,
+        "material.sliding_friction": 0.4}``): how a campaign's point and a diagnosis's effect set
+        the spec (:func:`~calibrax.core.sheartest.fields.set_paths`)."""
+        return set_paths(self, values)
 
     def replace(self, **changes: Any) -> "ShearCellSpec":
         """A copy with fields changed; a dict value updates a sub-dataclass field by field."""
