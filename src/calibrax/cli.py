@@ -81,8 +81,8 @@ def build_parser() -> argparse.ArgumentParser:
     cross.add_argument("--backends", required=True, help="comma-separated simulators, e.g. numba_dem,liggghts,yade")
     cross.add_argument("--seeds", type=int, default=3, help="seeds per point and backend (default 3)")
     cross.add_argument("--points", action="append", default=[], metavar="NAME=V,...",
-                       help="a parameter point, e.g. youngs_modulus=2.5e10,sliding_friction=0.5 (repeatable; "
-                            "default: the campaign's material)")
+                       help="a parameter point, e.g. youngs_modulus=2.5e10,geometry.wall_friction=0.2 (any name a "
+                            "campaign may calibrate; repeatable; default: the campaign's cell)")
     cross.add_argument("--no-micro", action="store_true", help="skip the micro-level checks")
     cross.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.crosscheck/)")
     cross.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")

@@ -11,7 +11,7 @@ multi-fidelity campaigns): C by −3000 Pa · g and tan(AIF) by −2 g, g = 1/9 
 diameter) (``quick``: −83 Pa and −0.056, what μs ≈ 0.08 lower gives at tiny). Each shear step's
 τ curve rises to its peak at 0.05 rad and softens after it. The diagnosis's
 effects act on it in known ways: lateral wall friction w multiplies every τ by (1 + 0.8 w) and the
-bulk density by (1 − 0.1 w); cohesion k adds k/10⁴ Pa to C (k in J/m³); a size distribution of
+bulk density by (1 − 0.1 w); rolling friction μr adds 0.3 (μr − 0.5) to tan(AIF); cohesion k adds k/10⁴ Pa to C (k in J/m³); a size distribution of
 width s multiplies the bulk density by (1 + 0.15 s).
 Environment knobs for fault and scheduling tests:
 
@@ -37,6 +37,10 @@ import numpy as np
 from calibrax import hookimpl
 from calibrax.core.sheartest import Provenance, ShearCellSpec, ShearTestResult, StepRecord
 from calibrax.errors import SimulationFailed
+
+
+#: d tan(AIF) / d μr: rolling friction steepens the locus, from Table 1's μr = 0.5
+ROLLING_SLOPE = 0.3
 
 
 def true_locus(youngs_modulus: float, sliding_friction: float) -> tuple[float, float]:
@@ -94,7 +98,7 @@ class AnalyticDoubleSimulator:
         c += m.cohesion_energy_density / 1e4 + 1500.0 * m.bond_number  # Pa: the cohesion effect, by k or by Bond number
         bias_c, bias_slope = fidelity_bias(spec.particles_per_diameter)
         c += bias_c
-        slope = math.tan(math.radians(aif)) + bias_slope
+        slope = math.tan(math.radians(aif)) + bias_slope + ROLLING_SLOPE * (m.rolling_friction - 0.5)
         wall = 1.0 + 0.8 * spec.geometry.wall_friction
         packing = (1.0 - 0.1 * spec.geometry.wall_friction) * (1.0 + 0.15 * spec.size_distribution.sigma_log)
         noise = float(os.environ.get("CALIBRAX_DOUBLE_NOISE", "0"))

@@ -34,7 +34,7 @@ def test_from_unit_clips_into_the_bounds():
     ({"sliding_friction": {"low": 0.1}}, "high: is required"),
 
     ({"sliding_friction": {"low": 0.0, "high": 0.9, "log": True}}, "> 0"),
-    ({"youngs_modulus": {"low": 0.0, "high": 1e9}}, "must lie within"),
+    ({"youngs_modulus": {"low": 0.0, "high": 1e9}}, r"bounds must lie in \[100000, 1e\+13\] \(material.youngs_modulus\)"),
     ({}, "non-empty mapping"),
 ])
 def test_bad_parameters(raw, match):

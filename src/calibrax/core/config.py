@@ -427,7 +427,7 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     # Build the plugins once so their own option checks run now, not mid-campaign.
     from calibrax.core.search.metric import TermsMetric
     from calibrax.core.registry import get_manager
-    from calibrax.core.simulator import check_capabilities
+    from calibrax.core.simulator import check_capabilities, check_parameter_capabilities
 
     manager = get_manager()
     for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options),
@@ -444,7 +444,9 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
             raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
                               f"(calibrax.core.search.metric.TermsMetric); metric {metric!r} does not: use model: "
                               "distance, or the metric c_aif or robust")
-        check_capabilities(manager.create("simulator", simulator), spec)
+        simulator_obj = manager.create("simulator", simulator)
+        check_capabilities(simulator_obj, spec)
+        check_parameter_capabilities(simulator_obj, space)
     except PluginError as exc:
         raise ConfigError("simulator", str(exc)) from None
     resolved = {

@@ -11,6 +11,9 @@ from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.search.parameters import FIELDS, ParameterSpace
+from calibrax.core.sheartest.fields import declared_fields, get_path
+from calibrax.errors import ConfigError
 
 #: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
 #: lacks is refused by :func:`check_capabilities` before anything runs.
@@ -45,26 +48,34 @@ class Simulator(Protocol):
 
 
 def required_capabilities(spec: ShearCellSpec) -> set[str]:
-    """The optional effects a spec switches on."""
+    """The optional effects a spec switches on: the declared capability of every field whose value
+    is not its "off" value (:class:`~calibrax.core.sheartest.fields.FieldInfo`)."""
     need = set()
-    if spec.geometry.wall_friction > 0:
-        need.add("wall_friction")
-    if spec.size_distribution.kind != "mono":
-        need.add("size_distribution")
-    if spec.is_cohesive():
-        need.add("cohesion")
-    if spec.geometry.base_ribs > 0:
-        need.add("base_ribs")
-    if spec.procedure.compressibility_stresses:
-        need.add("compressibility_test")
+    for path, info in declared_fields(type(spec)):
+        if info.capability is None:
+            continue
+        value = get_path(spec, path)
+        if isinstance(value, (list, tuple)):
+            value = tuple(value)
+        if value != info.off:
+            need.add(info.capability)
     return need
 
 
 def check_capabilities(simulator: Simulator, spec: ShearCellSpec) -> None:
     """Refuse a spec that asks for an effect the backend cannot model."""
-    from calibrax.errors import ConfigError
-
     missing = required_capabilities(spec) - set(simulator.capabilities())
     if missing:
         raise ConfigError("simulator", f"{simulator.name} cannot model {sorted(missing)}; "
                           f"it models {sorted(simulator.capabilities())}")
+
+
+def check_parameter_capabilities(simulator: Simulator, space: ParameterSpace) -> None:
+    """Refuse a calibrated parameter whose box reaches values the backend cannot model (its
+    declared capability, :class:`~calibrax.core.sheartest.fields.FieldInfo`), naming it."""
+    for p in space.parameters:
+        field = FIELDS.get(p.name)
+        if field is not None and field.capability is not None and field.capability not in simulator.capabilities():
+            raise ConfigError(f"parameters.{p.name}", f"{simulator.name} cannot model {field.capability!r}, which "
+                              f"{field.path} other than {field.info.off!r} needs; it models "
+                              f"{sorted(simulator.capabilities())}")

@@ -13,7 +13,7 @@ A builtin effect needs a dozen lines; a plugin's looks the same::
         name, label, capability = "base_friction", "base friction", "base_ribs"
         parameters = (EffectParameter("base_friction", "geometry.base_friction", 0.1, 0.9, off=0.5),)
         def prior(self, experiment): return {p.name: UniformPrior(p.low, p.high) for p in self.parameters}
-        def apply(self, spec, values): return spec.replace(geometry={"base_friction": values["base_friction"]})
+        def apply(self, spec, values): return spec.with_values({"geometry.base_friction": values["base_friction"]})
 """
 
 from __future__ import annotations
@@ -37,7 +37,8 @@ class EffectParameter:
 
     Attributes:
         name: the parameter's name in tables and the store (e.g. ``wall_friction``).
-        path: the spec field it sets, dotted (``geometry.wall_friction``), for the report.
+        path: the spec field it sets, dotted (``geometry.wall_friction``): the path a campaign
+            calibrates it by too (``parameters: {geometry.wall_friction: ...}``).
         low, high: the range the diagnosis explores, natural units.
         unit: for tables and axes ("-": dimensionless).
         off: the value that switches the effect off (the calibrated model's value).
@@ -140,6 +141,11 @@ class _Builtin:
     def prior(self, experiment: "Experiment") -> dict[str, Prior]:
         return {p.name: UniformPrior(p.low, p.high) for p in self.parameters}
 
+    def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
+        """Each parameter's value set at its spec path, as a campaign sets a calibrated one
+        (:meth:`~calibrax.core.sheartest.ShearCellSpec.with_values`)."""
+        return spec.with_values({p.path: float(values[p.name]) for p in self.parameters})
+
 
 class WallFriction(_Builtin):
     """Sliding friction between the particles and the vessel's lateral wall (the paper's model has a
@@ -166,9 +172,6 @@ class WallFriction(_Builtin):
                                                  f"the experiment's wall friction angle {angle:g}°")}
         return super().prior(experiment)
 
-    def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
-        return spec.replace(geometry={"wall_friction": float(values["wall_friction"])})
-
 
 class SizeDistribution(_Builtin):
     """A log-normal spread of particle radii about the calibrated radius (the paper's particles are
@@ -191,8 +194,8 @@ class SizeDistribution(_Builtin):
     def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
         width = float(values["sigma_log"])
         if width <= 1e-6:
-            return spec.replace(size_distribution={"kind": "mono", "sigma_log": 0.0})
-        return spec.replace(size_distribution={"kind": "lognormal", "sigma_log": width})
+            return spec.with_values({"size_distribution.kind": "mono", "size_distribution.sigma_log": 0.0})
+        return spec.with_values({"size_distribution.kind": "lognormal", "size_distribution.sigma_log": width})
 
 
 class Cohesion(_Builtin):
@@ -233,7 +236,8 @@ class Cohesion(_Builtin):
         return {"bond_number": LogUniformPrior(low, high, "van der Waals to liquid bridges, 10–75 µm, at 15 kPa")}
 
     def apply(self, spec: "ShearCellSpec", values: dict[str, float]) -> "ShearCellSpec":
-        return spec.replace(material={"bond_number": float(values["bond_number"]), "cohesion_energy_density": 0.0})
+        return spec.with_values({"material.bond_number": float(values["bond_number"]),
+                                 "material.cohesion_energy_density": 0.0})
 
 
 BUILTIN_EFFECTS = (WallFriction, SizeDistribution, Cohesion)

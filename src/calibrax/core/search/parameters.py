@@ -12,48 +12,74 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrax.core.sheartest.fields import FieldInfo, declared_fields
+from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.errors import ConfigError
 
 @dataclass(frozen=True)
 class CalibratableField:
-    """One material field (:class:`~calibrax.core.sheartest.Material`) a campaign may calibrate.
+    """One spec field a campaign may calibrate, as the spec declares it
+    (:class:`~calibrax.core.sheartest.fields.FieldInfo`).
 
     Attributes:
-        name: the ``material`` field and the campaign file's parameter name.
+        name: the campaign file's parameter name: the dotted path (``geometry.wall_friction``), or
+            a :class:`~calibrax.core.sheartest.Material` field's bare name (``sliding_friction``).
+        path: the dotted path of the spec field it sets (``material.sliding_friction``).
         unit: its SI unit ("-": dimensionless), for tables and axes.
-        low, high: the range a search box may span (both inclusive).
+        low, high: the range a search box may span; ``info.contains`` says which ends are open.
         symbol: the symbol answers, logs and figures show (``E``, ``μs``).
         display_scale, display_unit: what the value is multiplied by for display, and the unit
             then (E shown in GPa: 1e-9, "GPa").
+        capability: the backend capability a value other than ``off`` needs, or None.
+        info: the declaration itself.
     """
 
     name: str
+    path: str
     unit: str
     low: float
     high: float
     symbol: str
     display_scale: float = 1.0
     display_unit: str = ""
+    capability: str | None = None
+    info: FieldInfo | None = None
 
 
-#: the one registry of calibratable parameters; everything else (the allowed ranges, the units,
-#: the display symbols) is read off it, and a unit test checks it against the Material fields
-FIELDS: dict[str, CalibratableField] = {f.name: f for f in (
-    CalibratableField("youngs_modulus", "Pa", 1.0e5, 1.0e13, "E", 1e-9, "GPa"),
-    CalibratableField("sliding_friction", "-", 0.0, 5.0, "μs"),
-    CalibratableField("rolling_friction", "-", 0.0, 5.0, "μr"),
-    CalibratableField("restitution", "-", 1.0e-3, 1.0, "e"),
-    CalibratableField("poisson_ratio", "-", 0.0, 0.49999, "ν"),
-    CalibratableField("density", "kg/m³", 1.0, 1.0e5, "ρ", 1.0, "kg/m³"),
-    CalibratableField("cohesion_energy_density", "J/m³", 0.0, 1.0e9, "k_coh", 1e-3, "kJ/m³"),
-    CalibratableField("bond_number", "-", 0.0, 100.0, "Bo"),
-)}
+def _calibratable_fields() -> dict[str, CalibratableField]:
+    """Every calibratable field by dotted path, and each material field by its bare name too."""
+    out: dict[str, CalibratableField] = {}
+    for path, info in declared_fields(ShearCellSpec):
+        if not info.calibratable:
+            continue
+        names = (path, path.split(".", 1)[1]) if path.startswith("material.") else (path,)
+        for name in names:
+            out[name] = CalibratableField(name, path, info.unit, info.low, info.high, info.symbol,
+                                          info.display_scale, info.display_unit or info.unit.strip("-"), info.capability,
+                                          info)
+    return out
+
+
+#: the calibratable parameters by name, read off the spec's declarations (the one place a field's
+#: unit, symbol and range are written: :mod:`calibrax.core.sheartest.spec`)
+FIELDS: dict[str, CalibratableField] = _calibratable_fields()
 #: {name: (low, high)}: the range each calibratable parameter's box may span
 CALIBRATABLE: dict[str, tuple[float, float]] = {n: (f.low, f.high) for n, f in FIELDS.items()}
 #: {name: unit} for tables and axes ("-": dimensionless)
 UNITS: dict[str, str] = {n: f.unit for n, f in FIELDS.items()}
 #: {name: (symbol, display scale, display unit)}
 DISPLAY: dict[str, tuple[str, float, str]] = {n: (f.symbol, f.display_scale, f.display_unit) for n, f in FIELDS.items()}
+
+
+def spec_path(name: str) -> str:
+    """The dotted spec path a parameter ``name`` sets (a bare name is a material field's)."""
+    return FIELDS[name].path if name in FIELDS else name
+
+
+def spec_values(params: dict[str, float]) -> dict[str, float]:
+    """``{parameter name: value}`` as ``{dotted spec path: value}``, for
+    :meth:`~calibrax.core.sheartest.ShearCellSpec.with_values`."""
+    return {spec_path(name): value for name, value in params.items()}
 
 
 @dataclass(frozen=True)
@@ -114,12 +140,12 @@ class ParameterSpace:
         """Build from the campaign's ``parameters:`` mapping, validating every entry."""
         if not isinstance(raw, dict) or not raw:
             raise ConfigError(key, f"must be a non-empty mapping of parameter name → {{low, high, log}}; "
-                              f"allowed names: {sorted(CALIBRATABLE)}")
+                              f"allowed names: {allowed_names()}")
         params = []
         for name, body in raw.items():
             k = f"{key}.{name}"
             if name not in CALIBRATABLE:
-                raise ConfigError(k, f"unknown parameter; allowed: {sorted(CALIBRATABLE)}")
+                raise ConfigError(k, f"unknown parameter; allowed: {allowed_names()}")
             if not isinstance(body, dict):
                 raise ConfigError(k, "must be a mapping with keys low, high and optionally log")
             unknown = set(body) - {"low", "high", "log"}
@@ -144,10 +170,21 @@ class ParameterSpace:
                 raise ConfigError(f"{k}.log", f"must be true or false, got {log!r}")
             if low >= high:
                 raise ConfigError(k, f"low must be < high, got low={low:g}, high={high:g}")
-            lo_ok, hi_ok = CALIBRATABLE[name]
-            if low < lo_ok or high > hi_ok:
-                raise ConfigError(k, f"bounds must lie within [{lo_ok:g}, {hi_ok:g}], got [{low:g}, {high:g}]")
+            info = FIELDS[name].info
+            if not (info.contains(low) and info.contains(high)):
+                raise ConfigError(k, f"bounds must lie {info.interval()} ({FIELDS[name].path}), "
+                                  f"got [{low:g}, {high:g}]")
             if log and low <= 0:
                 raise ConfigError(f"{k}.low", "must be > 0 for a log-scaled parameter")
             params.append(Parameter(name, low, high, log))
+        paths = [spec_path(p.name) for p in params]
+        twice = sorted({path for path in paths if paths.count(path) > 1})
+        if twice:
+            raise ConfigError(key, f"{twice[0]} is named twice (by its bare name and its dotted path); name it once")
         return cls(tuple(params))
+
+
+def allowed_names() -> str:
+    """The parameter names a campaign may calibrate, for error messages: every calibratable dotted
+    path; a material field may also be named bare."""
+    return f"{sorted(n for n in FIELDS if '.' in n)} (a material field also by its bare name, e.g. sliding_friction)"

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 from calibrax.core.config import CampaignConfig
 from calibrax.core.registry import get_manager
+from calibrax.core.search.parameters import FIELDS, allowed_names, spec_values
 from calibrax.core.studies.study import CaseOutcome, StudyCase
 from calibrax.core.sheartest.verification import MICRO_CASES, MicroMaterial, Verification
 from calibrax.errors import ConfigError, PluginError
@@ -32,13 +33,13 @@ MICRO_TOLERANCE = 0.02
 
 
 def parse_point(text: str, config: CampaignConfig) -> dict[str, float]:
-    """``youngs_modulus=2e10,sliding_friction=0.5`` → {name: value}; names are Material fields."""
+    """``youngs_modulus=2e10,geometry.wall_friction=0.2`` → {name: value}; the names a campaign
+    may calibrate (:data:`~calibrax.core.search.parameters.FIELDS`)."""
     out: dict[str, float] = {}
     for item in filter(None, (t.strip() for t in text.split(","))):
         key, sep, value = item.partition("=")
-        if not sep or key not in config.spec.material.__dataclass_fields__:
-            raise ConfigError("--points", f"{item!r}: expected NAME=VALUE with NAME one of "
-                              f"{sorted(config.spec.material.__dataclass_fields__)}")
+        if not sep or key not in FIELDS:
+            raise ConfigError("--points", f"{item!r}: expected NAME=VALUE with NAME one of {allowed_names()}")
         try:
             number = float(value)
         except ValueError:
@@ -64,7 +65,7 @@ def crosscheck_cases(config: CampaignConfig, backends: list[str], seeds: int,
     cases = []
     for j, params in enumerate(points or [{}]):
         try:
-            spec = config.spec.replace(material=dict(params)).validate()
+            spec = config.spec.with_values(spec_values(params)).validate()
         except ConfigError as exc:
             raise ConfigError("--points", f"{params}: {exc}") from None
         for b, sim in simulators.items():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from calibrax.core.search.parameters import spec_values
 from calibrax.core.sheartest import ShearCellSpec
 
 #: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
@@ -23,5 +24,7 @@ def simulation_workdir(workdir: Path, point_id: int, index: int) -> Path:
 
 
 def point_spec(base: ShearCellSpec, params: dict[str, float], seed: int) -> ShearCellSpec:
-    """The spec of one simulation: calibrated material values and the seed set on the base spec."""
-    return base.replace(material=dict(params), numerics={"seed": int(seed)})
+    """The spec of one simulation: the calibrated values ({parameter name: natural value}, each
+    set at its spec path: :func:`~calibrax.core.search.parameters.spec_path`) and the seed set on
+    the base spec."""
+    return base.with_values(spec_values(params)).replace(numerics={"seed": int(seed)})

@@ -133,7 +133,8 @@ class RollingFriction:
         return {p.name: UniformPrior(min(p.off, p.high), max(p.off, p.high))}
 
     def apply(self, spec, values: dict[str, float]):
-        return spec.replace(material={"rolling_friction": float(values["rolling_friction"])})
+        p = self.parameters[0]
+        return spec.with_values({p.path: float(values[p.name])})
 
 
 @dataclass(frozen=True)
