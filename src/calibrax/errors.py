@@ -7,6 +7,26 @@ other user-input errors) into exit code 2 and prints only the message.
 
 from __future__ import annotations
 
+from enum import StrEnum
+
+
+class FailureKind(StrEnum):
+    """What kind of failure a :class:`SimulationFailed` is (stored as its text)."""
+
+    CRASH = "crash"  #: the engine or its process died, or raised
+    NAN = "nan"  #: NaN in the state or the result
+    TIMEOUT = "timeout"  #: ran past its time limit
+    UNSTABLE = "unstable"  #: blew up, or particles left the cell
+    INVALID = "invalid"  #: the result cannot mean anything (wrong shape, no step)
+    WORKER_LOST = "worker_lost"  #: the cluster lost the worker (infrastructure, not the parameters)
+    CANCELLED = "cancelled"  #: the campaign stopped it (infrastructure, not the parameters)
+
+    @property
+    def is_physical(self) -> bool:
+        """Whether the failure says something about the parameters (the search should avoid them)."""
+        return self not in (FailureKind.WORKER_LOST, FailureKind.CANCELLED)
+
+
 
 class CalibraxError(Exception):
     """Base class of every calibrax error."""
@@ -53,10 +73,13 @@ class SimulationFailed(CalibraxError):
     ``log_tail`` (the last lines of the engine's own log) and goes on.
     """
 
-    def __init__(self, reason: str, log_tail: str = "", *, kind: str = "crash") -> None:
+    def __init__(self, reason: str, log_tail: str = "", *, kind: FailureKind | str = FailureKind.CRASH) -> None:
         self.reason = reason
         self.log_tail = log_tail
-        self.kind = kind  # "crash" | "nan" | "timeout" | "unstable" | "invalid" | "worker_lost" | "cancelled"
+        try:
+            self.kind = FailureKind(kind)
+        except ValueError:
+            raise ValueError(f"unknown failure kind {kind!r}; allowed: {[k.value for k in FailureKind]}") from None
         super().__init__(reason)
 
     def __reduce__(self):
@@ -66,7 +89,7 @@ class SimulationFailed(CalibraxError):
     def is_physical(self) -> bool:
         """True when the failure says something about the parameters (the search should avoid them),
         False when it was the infrastructure (a lost worker, a cancellation)."""
-        return self.kind not in ("worker_lost", "cancelled")
+        return self.kind.is_physical
 
 
 def _rebuild_simulation_failed(cls: type, reason: str, log_tail: str, kind: str) -> "SimulationFailed":

@@ -12,7 +12,7 @@ import pytest
 from calibrax.core.running.executor import SimulationTask
 from calibrax.core.running.scheduler import Scheduler
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.errors import SimulationFailed
+from calibrax.errors import FailureKind, SimulationFailed
 
 
 class ThreadExecutorDouble:
@@ -45,7 +45,7 @@ def _task(point: int) -> SimulationTask:
 
 def _behaviour(task):
     if task.point_id == 1:
-        raise SimulationFailed("the bed blew up", kind="exploded")
+        raise SimulationFailed("the bed blew up", kind="unstable")
     if task.point_id == 2:
         raise RuntimeError("worker process died")
     return SimpleNamespace(provenance=SimpleNamespace(wall_time=12.5))
@@ -65,7 +65,7 @@ def test_every_outcome_comes_back_once_with_failures_as_data():
     assert sorted(done.key for done in finished) == [("p", 0), ("p", 1), ("p", 2)]
     by_key = {done.key: done for done in finished}
     assert by_key[("p", 0)].failure is None and by_key[("p", 0)].wall_time == 12.5  # the engine's own time
-    assert by_key[("p", 1)].result is None and by_key[("p", 1)].failure.kind == "exploded"
+    assert by_key[("p", 1)].result is None and by_key[("p", 1)].failure.kind == FailureKind.UNSTABLE
     crash = by_key[("p", 2)].failure
     assert crash.kind == "crash" and "RuntimeError: worker process died" in crash.reason
     assert by_key[("p", 2)].wall_time >= 0.0
@@ -91,3 +91,10 @@ def test_a_queued_simulation_has_not_started_and_a_key_is_taken_once():
         scheduler.wait(timeout=2.0)
     assert scheduler.started_at("a") is None and scheduler.started_at("b") is None  # forgotten once returned
     scheduler.shutdown()
+
+
+def test_a_failure_kind_is_one_of_the_declared_kinds():
+    assert SimulationFailed("x", kind="nan").kind is FailureKind.NAN and FailureKind.NAN == "nan"
+    assert not SimulationFailed("x", kind="worker_lost").is_physical and SimulationFailed("x").is_physical
+    with pytest.raises(ValueError, match=r"unknown failure kind 'exploded'; allowed: \['crash', 'nan'"):
+        SimulationFailed("x", kind="exploded")

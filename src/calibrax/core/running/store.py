@@ -334,7 +334,7 @@ class CampaignStore:
             s = g.create_group(name)
             s.attrs.update({"seed": seed, "wall_time": wall_time, "finished_at": time.time()})
             if result is None:
-                s.attrs.update({"status": "failed", "reason": reason, "log_tail": log_tail[-8000:], "kind": kind})
+                s.attrs.update({"status": "failed", "reason": reason, "log_tail": log_tail[-8000:], "kind": str(kind)})
             else:
                 write_result_group(s, result)
             if metric is not None:

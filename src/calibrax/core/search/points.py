@@ -15,6 +15,7 @@ from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import Answer, answer_from_model
 from calibrax.core.config import CampaignConfig
 from calibrax.core.running.store import PointRecord
+from calibrax.errors import FailureKind
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
 DUPLICATE_TOL = 1e-3
@@ -23,8 +24,8 @@ DUPLICATE_TOL = 1e-3
 def physically_failed(point: PointRecord) -> bool:
     """Every simulation of the point finished, none gave a metric, and at least one failure was
     about the parameters (not a lost worker or a cancellation)."""
-    return point.status == "failed" and any(s.status == "failed" and s.kind not in ("worker_lost", "cancelled")
-                                            for s in point.sims)
+    infrastructure = (FailureKind.WORKER_LOST, FailureKind.CANCELLED)
+    return point.status == "failed" and any(s.status == "failed" and s.kind not in infrastructure for s in point.sims)
 
 
 def observations(points: list[PointRecord], penalise_failures: bool = True,
