@@ -33,7 +33,7 @@ CASES = [
     (lambda c: c.update(executor={"name": "local", "workers": 0}), "executor.workers: must be an integer ≥ 1"),
     (lambda c: c.update(acquisition={"name": "qei", "q": 0}), "acquisition.q: must be an integer ≥ 1"),
     (lambda c: c.update(store="runs/out.txt"), "store: must name an HDF5 file"),
-    (lambda c: c.update(metric={"name": "c_aif", "scale_aif_deg": -2}), "metric.scale_aif_deg: must be a finite number > 0"),
+    (lambda c: c.update(metric={"name": "c_aif", "scale_aif_deg": -2}), "metric.scale_aif_deg: must be > 0, got -2"),
     (lambda c: c.update(cell={"procedure": "iso_9000"}), "cell.procedure: unknown procedure 'iso_9000'"),
     (lambda c: c.update(description=["batch 3", "B4C"]), "description: must be text, got list"),
     # multi-fidelity campaigns (fidelities: cheapest first, the target last)

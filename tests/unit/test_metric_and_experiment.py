@@ -37,8 +37,10 @@ def test_metric_is_zero_at_the_truth_and_scaled_by_the_replicate_spread(tmp_path
 def test_user_scale_overrides_and_bad_scale_is_refused(tmp_path):
     exp = load_experiment(write_double_experiment(tmp_path / "e.csv"))
     assert CAifMetric(scale_cohesion_pa=100.0, scale_aif_deg=1.0).scales(exp) == (100.0, 1.0)
-    with pytest.raises(ConfigError, match="metric.scale_aif_deg"):
-        CAifMetric(scale_aif_deg=-1.0)
+    from calibrax.core.registry import get_manager
+
+    with pytest.raises(ConfigError, match=r"metric.scale_aif_deg: must be > 0, got -1.0"):
+        get_manager().create("metric", "c_aif", scale_aif_deg=-1.0)
 
 
 def test_metric_uncertainty_propagates_regression_errors(tmp_path):

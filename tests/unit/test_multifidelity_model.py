@@ -85,7 +85,8 @@ def test_the_composite_model_carries_the_bias_in_each_feature():
 
 @pytest.mark.parametrize("bad", [{"candidates": 3}, {"candidates": "many"}])
 def test_bad_mfei_options_are_refused(bad):
+    from calibrax.core.registry import get_manager
     from calibrax.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="acquisition.candidates"):
-        AugmentedExpectedImprovement(**bad)
+    with pytest.raises(ConfigError, match=r"acquisition.candidates: must be an integer ≥ 16, got"):
+        get_manager().create("acquisition", AugmentedExpectedImprovement.name, **bad)

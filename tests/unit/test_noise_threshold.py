@@ -88,7 +88,14 @@ def test_robust_metric_scales_by_the_combined_spread_and_states_its_threshold():
 def test_robust_metric_refuses_unknown_features():
     from calibrax.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="metric.features"):
-        RobustMetric(features=["peak_tau"])
-    with pytest.raises(ConfigError, match="metric.seed_spread.peak_ratio"):
-        RobustMetric(seed_spread={"peak_ratio": -1.0})
+    from calibrax.core.registry import get_manager
+
+    def create(**options):
+        return get_manager().create("metric", RobustMetric.name, **options)
+
+    with pytest.raises(ConfigError, match=r"metric.features: unknown item\(s\) \['peak_tau'\]; allowed"):
+        create(features=["peak_tau"])
+    with pytest.raises(ConfigError, match="metric.seed_spread.peak_ratio: must be > 0, got -1.0"):
+        create(seed_spread={"peak_ratio": -1.0})
+    with pytest.raises(ConfigError, match="metric.seed_spread.peak_tau: unknown key"):
+        create(seed_spread={"peak_tau": 1.0})

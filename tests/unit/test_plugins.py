@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import os
 
 from calibrax.core.registry import PluginManager
@@ -68,3 +70,27 @@ def test_an_install_without_the_builtin_entry_points_says_how_to_fix_it(monkeypa
     with pytest.warns(PluginWarning, match="reinstall it"):
         manager.load_builtins()
     assert manager.plugins("metric") == {}
+
+
+def test_plugin_options_are_declared_once_and_checked_in_one_place():
+    """``OPTIONS`` declares each option (a plain type still works, for plugins written before
+    declarations); :func:`check_options` checks them with one message style, for the campaign file
+    and for ``PluginManager.create`` alike."""
+    from calibrax.core.options import Option, check_options
+    from calibrax.errors import ConfigError
+
+    class PluginDouble:  # test double of a plugin class: only its declaration matters here
+        name = "double"
+        OPTIONS = {"workers": Option(int, low=1), "rate": Option(float, low=0.0, high=1.0, low_open=True),
+                   "mode": Option(str, choices=("a", "b")), "legacy": int}
+
+    assert check_options("executor", PluginDouble, {"workers": 2, "rate": "5e-1", "legacy": 0}) == \
+        {"workers": 2, "rate": 0.5, "legacy": 0}
+    for given, message in (({"workers": 0}, "executor.workers: must be an integer ≥ 1, got 0"),
+                           ({"rate": 0.0}, r"executor.rate: must be in \(0, 1\], got 0.0"),
+                           ({"mode": "c"}, r"executor.mode: must be one of \['a', 'b'\], got 'c'"),
+                           ({"legacy": 1.5}, "executor.legacy: must be an integer, got 1.5"),
+                           ({"speed": 1}, r"executor.speed: unknown option of executor 'double'; allowed: "
+                                          r"\['legacy', 'mode', 'rate', 'workers'\]")):
+        with pytest.raises(ConfigError, match=message):
+            check_options("executor", PluginDouble, given)

@@ -22,6 +22,7 @@ from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
                                      ShearCellSpec, SizeDistribution)
+from calibrax.core.options import check_options
 from calibrax.core.sheartest.spec import ADDED_SPEC_FIELDS
 from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError
@@ -243,25 +244,7 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
         info = get_manager().get(kind, name)
     except PluginError as exc:
         raise ConfigError(key, str(exc)) from None
-    allowed = getattr(info.cls, "OPTIONS", {})
-    for opt, value in options.items():
-        if opt not in allowed:
-            raise ConfigError(f"{key}.{opt}", f"unknown option of {kind} {name!r}; allowed: {sorted(allowed)}")
-        typ = allowed[opt]
-        if typ is float:
-            options[opt] = _number(f"{key}.{opt}", value)
-        elif typ is int:
-            options[opt] = _integer(f"{key}.{opt}", value, 0)
-        elif typ is str:
-            options[opt] = _text(f"{key}.{opt}", value)
-        elif typ is list:
-            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-                raise ConfigError(f"{key}.{opt}", f"must be a list of text lines, got {value!r}")
-        elif typ is dict:
-            if not isinstance(value, dict) or not value:
-                raise ConfigError(f"{key}.{opt}", f"must be a mapping of names to numbers, got {value!r}")
-            options[opt] = {str(k): _number(f"{key}.{opt}.{k}", v) for k, v in value.items()}
-    return name, options
+    return name, check_options(key, info.cls, options)
 
 
 def without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:

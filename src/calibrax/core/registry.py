@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 
 import pluggy
 
-from calibrax.errors import PluginError
 from calibrax.core import hookspecs
+from calibrax.core.options import check_options
+from calibrax.errors import PluginError
 
 HOOKS = {
     "simulator": "calibrax_simulators",
@@ -155,8 +156,10 @@ class PluginManager:
         return known[name]
 
     def create(self, kind: str, name: str, **options: object) -> object:
-        """An instance of plugin ``name`` built with ``options``."""
-        return self.get(kind, name).cls(**options)
+        """An instance of plugin ``name`` built with ``options``, checked first against its declared
+        ``OPTIONS`` (:func:`~calibrax.core.options.check_options`; errors name ``kind.option``)."""
+        cls = self.get(kind, name).cls
+        return cls(**check_options(kind, cls, options))
 
 
 @functools.cache

@@ -24,6 +24,7 @@ import uuid
 from typing import Any
 
 from calibrax.core.running.executor import SimulationTask, run_isolated
+from calibrax.core.options import Option
 from calibrax.errors import ConfigError, SimulationFailed
 
 CLUSTERS = ("local", "slurm", "pbs")
@@ -44,9 +45,10 @@ class DaskExecutor:
     """Simulations on Dask. Give ``address`` (a running scheduler) or ``cluster`` (local, slurm, pbs)."""
 
     name = "dask"
-    OPTIONS = {"address": str, "cluster": str, "workers": int, "cores": int, "memory": str, "walltime": str,
-               "queue": str, "account": str, "job_extra_directives": list, "log_directory": str, "timeout_s": float,
-               "retries": int}
+    OPTIONS = {"address": str, "cluster": Option(str, choices=tuple(CLUSTERS)), "workers": Option(int, low=1),
+               "cores": Option(int, low=1), "memory": str, "walltime": str, "queue": str, "account": str,
+               "job_extra_directives": list, "log_directory": str, "timeout_s": Option(float, low=0.0, low_open=True),
+               "retries": Option(int, low=0)}
 
     def __init__(self, address: str | None = None, cluster: str | None = None, workers: int = 2, cores: int = 1,
                  memory: str | None = None, walltime: str | None = None, queue: str | None = None,
@@ -61,17 +63,10 @@ class DaskExecutor:
         if (address is None) == (cluster is None):
             raise ConfigError("executor", "give exactly one of 'address' (tcp://HOST:PORT of a running scheduler) "
                               f"or 'cluster' (one of {list(CLUSTERS)})")
-        if cluster is not None and cluster not in CLUSTERS:
-            raise ConfigError("executor.cluster", f"must be one of {list(CLUSTERS)}, got {cluster!r}")
         if address is not None and not address.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
             raise ConfigError("executor.address", f"must look like tcp://HOST:PORT, got {address!r}")
-        for key, value in (("workers", workers), ("cores", cores)):
-            if value < 1:
-                raise ConfigError(f"executor.{key}", f"must be an integer ≥ 1, got {value}")
         if cluster in ("slurm", "pbs") and not memory:
             raise ConfigError("executor.memory", f"is required for cluster {cluster} (e.g. '8GB' per job)")
-        if timeout_s is not None and timeout_s <= 0:
-            raise ConfigError("executor.timeout_s", f"must be > 0 s, got {timeout_s}")
         self.address, self.cluster_kind, self.workers, self.cores = address, cluster, workers, cores
         self.job = _job_options(cores, memory, walltime, queue, account, job_extra_directives)
         if log_directory:

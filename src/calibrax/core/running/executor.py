@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Protocol, runtime_checkable
 
 from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.options import Option
 from calibrax.errors import CalibraxError, SimulationFailed
 
 
@@ -212,7 +213,7 @@ class LocalExecutor:
     """Isolated simulations on this machine, ``workers`` at once, each killed after ``timeout_s``."""
 
     name = "local"
-    OPTIONS = {"workers": int, "timeout_s": float}
+    OPTIONS = {"workers": Option(int, low=1), "timeout_s": Option(float, low=0.0, low_open=True)}
 
     def __init__(self, workers: int = 1, timeout_s: float | None = None) -> None:
         self.workers = workers

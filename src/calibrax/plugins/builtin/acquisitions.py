@@ -22,6 +22,7 @@ from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.design import sobol_points
 from calibrax.core.hookspecs import hookimpl
 from calibrax.core.search.parameters import ParameterSpace
+from calibrax.core.options import Option
 from calibrax.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -39,12 +40,9 @@ class _BoTorchAcquisition(abc.ABC):
 
     name = ""
     needs_model = True
-    OPTIONS = {"num_restarts": int, "raw_samples": int, "mc_samples": int}
+    OPTIONS = {"num_restarts": Option(int, low=1), "raw_samples": Option(int, low=1), "mc_samples": Option(int, low=1)}
 
     def __init__(self, num_restarts: int = 10, raw_samples: int = 256, mc_samples: int = 256) -> None:
-        for key, v in (("num_restarts", num_restarts), ("raw_samples", raw_samples), ("mc_samples", mc_samples)):
-            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-                raise ConfigError(f"acquisition.{key}", f"must be an integer ≥ 1, got {v!r}")
         self.num_restarts, self.raw_samples, self.mc_samples = num_restarts, raw_samples, mc_samples
 
     @abc.abstractmethod
@@ -91,13 +89,11 @@ class _ImprovementAcquisition(_BoTorchAcquisition):
     """An improvement criterion over an incumbent ``best_f``: the best posterior mean at the
     evaluated points (``posterior_mean``, default) or the best observation (``observed``)."""
 
-    OPTIONS = {**_BoTorchAcquisition.OPTIONS, "best_f": str}
     BEST_F = ("posterior_mean", "observed")
+    OPTIONS = {**_BoTorchAcquisition.OPTIONS, "best_f": Option(str, choices=BEST_F)}
 
     def __init__(self, best_f: str = "posterior_mean", **options: int) -> None:
         super().__init__(**options)
-        if best_f not in self.BEST_F:
-            raise ConfigError("acquisition.best_f", f"must be one of {list(self.BEST_F)}, got {best_f!r}")
         self.best_f = best_f
 
     def incumbent(self, model: "Kriging") -> float:

@@ -20,6 +20,7 @@ from calibrax.core.search.metric import MetricValue, terms_from_features
 from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.search.threshold import DEFAULT_RATE, noise_threshold, welch_dof
 from calibrax.core.sheartest.yieldlocus import YieldLocus
+from calibrax.core.options import Option
 from calibrax.errors import ConfigError
 from calibrax.core.hookspecs import hookimpl
 
@@ -44,15 +45,12 @@ class CAifMetric:
     """
 
     name = "c_aif"
-    OPTIONS = {"scale_cohesion_pa": float, "scale_aif_deg": float, "against": str}
+    OPTIONS = {"scale_cohesion_pa": Option(float, low=0.0, low_open=True),
+               "scale_aif_deg": Option(float, low=0.0, low_open=True),
+               "against": Option(str, choices=("target", "measured"))}
 
     def __init__(self, scale_cohesion_pa: float | None = None, scale_aif_deg: float | None = None,
                  against: str = "target") -> None:
-        for key, v in (("scale_cohesion_pa", scale_cohesion_pa), ("scale_aif_deg", scale_aif_deg)):
-            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"metric.{key}", f"must be a finite number > 0, got {v!r}")
-        if against not in ("target", "measured"):
-            raise ConfigError("metric.against", f"must be 'target' or 'measured', got {against!r}")
         self.scale_cohesion_pa = scale_cohesion_pa
         self.scale_aif_deg = scale_aif_deg
         self.against = against
@@ -144,20 +142,14 @@ class RobustMetric:
     name = "robust"
     STEMS = ("peak_ratio", "preshear_ratio", "shear_end_ratio", "bulk_density")
     DEFAULT = ("peak_ratio", "preshear_ratio", "bulk_density")
-    OPTIONS = {"features": list, "seed_spread": dict, "seed_spread_seeds": int}
+    OPTIONS = {"features": Option(list, choices=STEMS, nonempty=True),
+               "seed_spread": Option(dict, choices=STEMS, low=0.0, low_open=True, nonempty=True),
+               "seed_spread_seeds": Option(int, low=2)}
 
     def __init__(self, features: list[str] | None = None, seed_spread: dict[str, float] | None = None,
                  seed_spread_seeds: int | None = None) -> None:
         stems = list(features) if features is not None else list(self.DEFAULT)
-        bad = [f for f in stems if f not in self.STEMS]
-        if bad or not stems:
-            raise ConfigError("metric.features", f"unknown feature(s) {bad}; allowed: {list(self.STEMS)}")
         spread = dict(seed_spread or {})
-        bad = [k for k, v in spread.items() if k not in self.STEMS or not (math.isfinite(v) and v > 0)]
-        if bad:
-            raise ConfigError(f"metric.seed_spread.{bad[0]}", f"must be one of {list(self.STEMS)} with an s.d. > 0")
-        if seed_spread_seeds is not None and seed_spread_seeds < 2:
-            raise ConfigError("metric.seed_spread_seeds", f"must be ≥ 2, got {seed_spread_seeds}")
         self.stems = stems
         self.seed_spread = spread
         self.seed_dof = math.inf if seed_spread_seeds is None else seed_spread_seeds - 1

@@ -31,6 +31,7 @@ import numpy as np
 from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import grid
 from calibrax.core.search.parameters import ParameterSpace
+from calibrax.core.options import Option
 from calibrax.errors import ConfigError
 
 #: Sobol candidates per level on which ``mfei`` is maximised (then refined locally)
@@ -52,11 +53,9 @@ class AugmentedExpectedImprovement:
     name = "mfei"
     needs_model = True
     multi_fidelity = True
-    OPTIONS = {"candidates": int}
+    OPTIONS = {"candidates": Option(int, low=16)}
 
     def __init__(self, candidates: int = CANDIDATES) -> None:
-        if not isinstance(candidates, int) or isinstance(candidates, bool) or candidates < 16:
-            raise ConfigError("acquisition.candidates", f"must be an integer ≥ 16, got {candidates!r}")
         self.candidates = candidates
 
     def score(self, model, x: np.ndarray, level: float, cost: float, target_cost: float,
@@ -106,12 +105,10 @@ class MultiFidelityKnowledgeGradient:
     name = "mfkg"
     needs_model = True
     multi_fidelity = True
-    OPTIONS = {"num_fantasies": int, "num_restarts": int, "raw_samples": int}
+    OPTIONS = {"num_fantasies": Option(int, low=1), "num_restarts": Option(int, low=1),
+               "raw_samples": Option(int, low=1)}
 
     def __init__(self, num_fantasies: int = 32, num_restarts: int = 4, raw_samples: int = 128) -> None:
-        for key, v in (("num_fantasies", num_fantasies), ("num_restarts", num_restarts), ("raw_samples", raw_samples)):
-            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-                raise ConfigError(f"acquisition.{key}", f"must be an integer ≥ 1, got {v!r}")
         self.num_fantasies, self.num_restarts, self.raw_samples = num_fantasies, num_restarts, raw_samples
 
     def propose(self, model, space: ParameterSpace, observations: Observations, q: int, *,
