@@ -57,7 +57,8 @@ class ToyEngine:
         self.floor = float(np.max(pts[:, 2]) + r)
         self.head_r = spec.geometry.head_radius
         self.parked = 10.0 * spec.geometry.fill_height  # the head's height, m, until it is placed
-        self.state = {"t": 0.0, "z": self.parked, "placed": False, "phi": 0.0, "omega": 0.0, "force": 0.0, "vmax": 0.0, "acc": [0.0, 0.0, 0]}
+        self.state = {"t": 0.0, "z": self.parked, "placed": False, "phi": 0.0, "omega": 0.0, "force": 0.0,
+                      "vmax": 0.0, "acc": [0.0, 0.0, 0]}
         self.regime = "pour"
 
     time = property(lambda self: self.state["t"])

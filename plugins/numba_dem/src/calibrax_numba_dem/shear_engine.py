@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import copy
 
-import numpy as np
-from calibrax.core.sheartest import (GRAVITY, INSERTION_FRICTION, POUR_FRICTION, POUR_GRAVITY, ShearCellSpec)
+from calibrax.core.sheartest import GRAVITY, INSERTION_FRICTION, POUR_FRICTION, POUR_GRAVITY, ShearCellSpec
 from calibrax.core.sheartest.packing import initial_packing
 
 from .contact import beta_from_restitution, effective_moduli
