@@ -41,6 +41,7 @@ import numba
 import numpy as np
 
 from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.procedure_stages import Consolidate, InsertBlades, Pour
 from calibrax_numba_dem.engine import DEMSystem, numba_threads
 from calibrax_numba_dem.layout import H_OMEGA, H_PHI, H_VZ, H_Z, P_USE_HEAD
 from calibrax_numba_dem.procedure import RunLog, ShearTestDriver, new_logger
@@ -53,13 +54,13 @@ def prepare(spec: ShearCellSpec, preshear: bool) -> tuple[DEMSystem, DEMSystem |
     """(settled bed without head, consolidated bed shearing under the head or None), numba_dem."""
     driver = ShearTestDriver(spec, RunLog(new_logger(os.path.join(tempfile.mkdtemp(), "bench.log"))))
     with numba_threads(1):
-        driver.pour()
+        driver.run_stage(Pour())
         bed = copy.deepcopy(driver.sys)
         if not preshear:
             return bed, None
-        driver.consolidate()
+        driver.run((InsertBlades(spec.procedure.preshear_stress), Consolidate(spec.procedure.preshear_stress)))
     driver.sys.head[H_OMEGA] = spec.procedure.rotation_rate
-    driver._set_servo(spec.procedure.preshear_stress, 0.05)
+    driver.set_servo(spec.procedure.preshear_stress, 0.05)
     with numba_threads(1):
         driver.sys.advance(200)
     return bed, driver.sys

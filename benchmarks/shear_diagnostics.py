@@ -113,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     from calibrax import ShearCellSpec
     from calibrax.core.sheartest import Provenance, ShearTestResult
     from calibrax_numba_dem.layout import H_PHI, H_Z
+    from calibrax.core.sheartest.stage_records import summarise
     from calibrax_numba_dem.procedure import RunLog, ShearTestDriver
 
     material = {k: float(v) for k, _, v in (s.partition("=") for s in args.set)}
@@ -123,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     profiles: list[tuple[str, float, np.ndarray, float]] = []
     plain_rotate = driver.rotate
 
-    def rotate(kind: str, stress: float, rotation: float, **kw):
+    def rotate(stage):
         samples: list[np.ndarray] = []
         angles: list[float] = []
         plain_advance = driver.sys.advance
@@ -135,35 +136,42 @@ def main(argv: list[str] | None = None) -> int:
             angles.append(float(driver.sys.head[H_PHI]) - phi0)
         driver.sys.advance = advance
         try:
-            step = plain_rotate(kind, stress, rotation, **kw)
+            record = plain_rotate(stage)
         finally:
             del driver.sys.advance
-        profiles.append((kind, stress, np.nanmean(np.asarray(samples), axis=0) / rate, float(driver.sys.head[H_Z])))
+        step = record.step
+        profiles.append((stage.kind, stage.stress, np.nanmean(np.asarray(samples), axis=0) / rate, float(driver.sys.head[H_Z])))
         if args.every:
             print_stretches(step, np.asarray(samples) / rate, np.asarray(angles), args.every, float(driver.sys.head[H_Z]), d)
         if len(profiles) == 1:
             print("solid fraction below the head after the first preshear (top first, half-diameter slices): "
                   + " ".join(f"{v:.2f}" for v in solid_fraction_below_head(driver)))
-        return step
+        return record
 
     driver.rotate = rotate
-    plain_consolidate = driver.consolidate
+    plain_consolidate, plain_insert = driver.consolidate, driver.insert_blades
+    inserted = []
 
-    def consolidate() -> None:
-        plain_consolidate()
+    def insert_blades(stage):
+        inserted.append(plain_insert(stage))
+        return inserted[-1]
+
+    def consolidate(stage):
+        record = plain_consolidate(stage)
         print(f"{spec.name}, seed {args.seed}: blade zone {spec.geometry.blade_height / d:.1f} diameters; head face "
-              f"{driver.insertion_gap:+.2f} radii from the poured bed's top after insertion")
+              f"{inserted[-1].gap_radii:+.2f} radii from the poured bed's top after insertion")
         print("solid fraction below the head after consolidation (top first, half-diameter slices): "
               + " ".join(f"{v:.2f}" for v in solid_fraction_below_head(driver)))
-    driver.consolidate = consolidate
-    driver.run()
+        return record
+    driver.consolidate, driver.insert_blades = consolidate, insert_blades
+    summary = summarise(driver.run())
     print(f"\nspin over the head's rate, {LAYERS} layers from the base (left) to the head (right); shear zone in "
           "particle diameters above the base (blade tips at the head's height minus the blade height):")
     for kind, stress, prof, zh in profiles:
         middle, width = zone(prof, zh, d)
         print(f"  {kind:8s} {stress / 1e3:4.0f} kPa: " + " ".join(f"{v:5.2f}" for v in prof)
               + f" | middle {middle:4.1f} d, width {width:4.1f} d, blade tips at {(zh - spec.geometry.blade_height) / d:4.1f} d")
-    result = ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density,
+    result = ShearTestResult.from_steps(spec, summary.steps, summary.bulk_density,
                                         Provenance("numba_dem", "-", spec.spec_hash(), args.seed, 0.0, driver.sys.n),
                                         driver.warnings)
     print("\npreshear rotation [rad]: " + " ".join(f"{v:.2f}" for v in result.preshear_rotation)

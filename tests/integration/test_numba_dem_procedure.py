@@ -9,6 +9,7 @@ import logging
 import pytest
 
 from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.procedure_stages import Consolidate, InsertBlades, Pour
 from calibrax_numba_dem.layout import H_PHI, P_MUR_WALL, P_MU_WALL
 from calibrax_numba_dem.procedure import RunLog, ShearTestDriver
 
@@ -31,23 +32,18 @@ def test_consolidation_at_the_papers_rotation_rate_runs_its_whole_rotation():
     one_rotation = 0.075 / paper.rotation_rate  # s
     assert one_rotation > 0.12
     driver = _driver(spec)
-    driver.pour()
-    # consolidation proper starts once the blades are in (consolidate() first takes them in at a
-    # tenth of the preshear stress: ShearTestDriver.insert_blades)
-    start = {}
-    plain_insert = driver.insert_blades
-
-    def insert_blades(highest: float) -> None:
-        plain_insert(highest)
-        start["phi"], start["t"] = float(driver.sys.head[H_PHI]), driver.time
-    driver.insert_blades = insert_blades
-    driver.consolidate()
-    turned, took = float(driver.sys.head[H_PHI]) - start["phi"], driver.time - start["t"]
+    # consolidation proper starts once the blades are in (InsertBlades takes them in at a tenth of
+    # the preshear stress)
+    driver.run((Pour(), InsertBlades(spec.procedure.preshear_stress)))
+    phi, t = float(driver.sys.head[H_PHI]), driver.time
+    record = driver.run_stage(Consolidate(spec.procedure.preshear_stress))
+    turned, took = float(driver.sys.head[H_PHI]) - phi, driver.time - t
     assert driver.warnings == []
     assert turned >= 0.075 * 0.99, turned
     assert one_rotation <= took < spec.procedure.consolidation_time_limit
     # the log and the provenance report the same
-    assert (driver.consolidation_time, driver.consolidation_rotation) == pytest.approx((took, turned))
+    assert (record.duration, record.rotation) == pytest.approx((took, turned))
+    assert record.settled
 
 
 def test_the_walls_rolling_friction_reaches_the_engine():
@@ -57,6 +53,6 @@ def test_the_walls_rolling_friction_reaches_the_engine():
     spec = ShearCellSpec.preset("tiny").replace(geometry={"wall_friction": 0.3, "wall_rolling_friction": 0.12})
     assert spec.material.rolling_friction != 0.12
     driver = _driver(spec)
-    driver.pour()
+    driver.run_stage(Pour())
     assert driver.sys.params[P_MUR_WALL] == pytest.approx(0.12)
     assert driver.sys.params[P_MU_WALL] == pytest.approx(0.3)

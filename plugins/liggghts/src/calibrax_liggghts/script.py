@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 from calibrax.core.sheartest.packing import initial_packing
+from calibrax.core.sheartest.procedure_stages import (Consolidate, Fork, InsertBlades, Pour, Rotate, Settle,
+                                                      shear_test_stages)
 from calibrax.core.sheartest.servo import servo_gains
 from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY,
                                      INSERTION_STRESS_FRACTION, INSERTION_TOLERANCE_RADII, POUR_FRICTION, POUR_GRAVITY,
@@ -318,105 +320,109 @@ def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = 
         return ScriptPlan(dt=dt, sample_steps=per, steps=(), n_particles=len(radii), z_park=z_park,
                           vessel_radius=rc, head_area=area)
 
-    # ---------------------------------------------------------------- pour (numba_dem's)
-    t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (GRAVITY * POUR_GRAVITY))
-    n_loops = int(math.ceil((10.0 * t_fall + 0.05 - 1.5 * t_fall) / 2.0e-3))
-    add(f"run {chunk(1.5 * t_fall)}")
-    add(f"variable ipour loop {integer(n_loops)}")
-    add("label pour")
-    add(f'if "${{vmax}} < {num(POUR_SPEED)}" then "jump SELF pourdone"')
-    add(f"run {chunk(2.0e-3)}")
-    add("next ipour")
-    add("jump SELF pour")
-    add("label pourdone")
-    add(f"set group all type {integer(T_PART)}")
-    add("unfix gravi")
-    add(f"fix gravi all gravity {num(GRAVITY)} vector 0.0 0.0 -1.0")
-    add(f"run {chunk(3.0e-3)}")
-    add('print "CALIBRAX poured ${stp} ${ztop} ${vmax}"')
-    # the poured bed's particles, for its conditioned bulk density (calibrax.core.sheartest.density)
-    add(f"write_dump all custom {POURED_DUMP} z radius")
+    def pour(stage: Pour) -> None:
+        # numba_dem's pour (core's StageRunner.pour)
+        t_fall = math.sqrt(2.0 * max(h0 - g.fill_height, r) / (GRAVITY * POUR_GRAVITY))
+        n_loops = int(math.ceil((10.0 * t_fall + 0.05 - 1.5 * t_fall) / 2.0e-3))
+        add(f"run {chunk(1.5 * t_fall)}")
+        add(f"variable ipour loop {integer(n_loops)}")
+        add("label pour")
+        add(f'if "${{vmax}} < {num(POUR_SPEED)}" then "jump SELF pourdone"')
+        add(f"run {chunk(2.0e-3)}")
+        add("next ipour")
+        add("jump SELF pour")
+        add("label pourdone")
+        add(f"set group all type {integer(T_PART)}")
+        add("unfix gravi")
+        add(f"fix gravi all gravity {num(GRAVITY)} vector 0.0 0.0 -1.0")
+        add(f"run {chunk(3.0e-3)}")
+        add('print "CALIBRAX poured ${stp} ${ztop} ${vmax}"')
+        # the poured bed's particles, for its conditioned bulk density (calibrax.core.sheartest.density)
+        add(f"write_dump all custom {POURED_DUMP} z radius")
 
-    # ---------------------------------------------------------------- place the head, consolidate
-    add(f"variable ztarget equal v_ztop+{num(g.blade_height + APPROACH_CLEARANCE * d)}")
-    add(f"variable nplace equal {integer(per)}*floor((v_zh-v_ztarget)/{num(PLACE_SPEED * dt * per)})")
-    add(f"variable vz equal {num(-PLACE_SPEED)}")
-    add('if "${nplace} > 0" then "run ${nplace}"')
-    add("variable vz equal 0.0")
-    add('print "CALIBRAX placed ${stp} ${zh} ${ztop}"')
-    # the head turns while it descends and consolidates, so that the blades cut into the bed (as the
-    # FT4 does, and numba_dem and YADE)
-    add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
-    # blade insertion (numba_dem's insert_blades): with the pour's friction and no rolling resistance
-    # on every contact (the particles back in the pour's atom type), the turning head comes down at
-    # APPROACH_SPEED while it carries less than INSERTION_STRESS_FRACTION of the preshear load and
-    # waits while it carries more, until its face is down to the poured bed's highest particle top
-    add("variable ztop0 equal ${ztop}")
-    add(f"variable zgoal equal {num(INSERTION_TOLERANCE_RADII * r)}+${{ztop0}}")
-    add(f"set group all type {integer(T_POUR)}")
-    add(f"variable fins equal {num(INSERTION_STRESS_FRACTION * f_pre)}")
-    ins_chunk = max(1, per // 8)
-    n_ins = int(math.ceil(insertion_time_limit(spec, APPROACH_SPEED) / (ins_chunk * dt)))
-    add(f"variable iins loop {integer(n_ins)}")
-    add("label insert")
-    add('if "${zh} <= ${zgoal}" then "jump SELF inserted"')
-    add(f'if "${{fup}} < ${{fins}}" then "variable vz equal {num(-APPROACH_SPEED)}" else "variable vz equal 0.0"')
-    add(f"run {integer(ins_chunk)}")
-    add("next iins")
-    add("jump SELF insert")
-    add("label inserted")
-    add("variable vz equal 0.0")
-    add(f"set group all type {integer(T_PART)}")
-    add('print "CALIBRAX inserted ${stp} ${zh} ${ztop0} ${zgoal}"')
-    add(f"variable ftgt equal {num(f_pre)}")
-    # approach: straight down at APPROACH_SPEED until the head carries the target load (checked every
-    # eighth of a sample interval: ≤ 5 µm of travel at 0.2 m/s in quick), then the dynamic head takes
-    # over at that speed. (Started earlier, its closed form below would wind up: the unloaded head
-    # falls freely while the speed limit holds it back)
-    add(f"variable vz equal {num(-APPROACH_SPEED)}")
-    app_chunk = max(1, per // 8)
-    n_app = int(math.ceil(0.3 / (app_chunk * dt)))
-    add(f"variable iapp loop {integer(n_app)}")
-    add("label approach")
-    add(f"run {integer(app_chunk)}")
-    add('if "${fup} >= ${ftgt}" then "jump SELF approached"')
-    add("next iapp")
-    add("jump SELF approach")
-    add("label approached")
-    # the head as a rigid body of mass M under the target load, with a damper on v − v_ref (numba_dem's
-    # and YADE's servo, calibrax.core.sheartest.servo), integrated in closed form from the contact (t = 0, v = v0):
-    #   M (v − v0) = ∫(F − F*) dt − c (Δz − ∫v_ref dt),
-    # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
-    # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v
-    # for a steady drift (a window mean lags a ramp by W/2 steps); W Δt = 2 τ_ref
-    servo(-APPROACH_SPEED)
-    # back onto whole sample intervals (the approach ran in eighths): every later run is a whole
-    # number of them, so the recording fixes sample on the same steps as the parser expects
-    add(f"variable pad equal {integer(per)}-step%{integer(per)}")
-    add(f'if "${{pad}} < {integer(per)}" then "run ${{pad}}"')
-    # σ averaged over each 3 ms chunk (numba_dem averages the last 1 ms; this tiny bed's σ is too noisy
-    # for that), the head's travel over the chunk
-    add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
-    # numba_dem's rule: at least one preshear rotation of turning (and 10 ms), then until the head
-    # stops sinking with σ on target; at most Procedure.consolidation_time_limit
-    n_cons = int(math.ceil(p.consolidation_time_limit / 3.0e-3))
-    min_chunks = max(4, int(math.ceil(p.consolidation_min_time / 3.0e-3)) + 1)
-    add("variable zprev equal ${zh}")
-    add("variable consok equal 0")
-    add(f"variable icons loop {integer(n_cons)}")
-    add("label cons")
-    add(f"run {chunk(3.0e-3)}")
-    add("variable dz equal abs(v_zh-v_zprev)")
-    add(f"variable serr equal abs(f_cons/{num(f_pre)}-1.0)")
-    add(f'if "${{icons}} >= {integer(min_chunks)} && ${{dz}} < {num(0.005 * d)} && ${{serr}} < 0.05" '
-        'then "variable consok equal 1" "jump SELF consdone"')
-    add("variable zprev equal ${zh}")
-    add("next icons")
-    add("jump SELF cons")
-    add("label consdone")
-    add('print "CALIBRAX consolidated ${stp} ${zh} ${serr} ${consok}"')
-    add("variable omega equal 0.0")
-    add("unfix cons")
+    def insert_blades(stage: InsertBlades) -> None:
+        # the head placed, then the blades in (core's StageRunner.insert_blades)
+        add(f"variable ztarget equal v_ztop+{num(g.blade_height + APPROACH_CLEARANCE * d)}")
+        add(f"variable nplace equal {integer(per)}*floor((v_zh-v_ztarget)/{num(PLACE_SPEED * dt * per)})")
+        add(f"variable vz equal {num(-PLACE_SPEED)}")
+        add('if "${nplace} > 0" then "run ${nplace}"')
+        add("variable vz equal 0.0")
+        add('print "CALIBRAX placed ${stp} ${zh} ${ztop}"')
+        # the head turns while it descends and consolidates, so that the blades cut into the bed (as the
+        # FT4 does, and numba_dem and YADE)
+        add(f"variable omega equal {num(p.rotation_rate, 'procedure.rotation_rate')}")
+        # blade insertion (numba_dem's insert_blades): with the pour's friction and no rolling resistance
+        # on every contact (the particles back in the pour's atom type), the turning head comes down at
+        # APPROACH_SPEED while it carries less than INSERTION_STRESS_FRACTION of the preshear load and
+        # waits while it carries more, until its face is down to the poured bed's highest particle top
+        add("variable ztop0 equal ${ztop}")
+        add(f"variable zgoal equal {num(INSERTION_TOLERANCE_RADII * r)}+${{ztop0}}")
+        add(f"set group all type {integer(T_POUR)}")
+        add(f"variable fins equal {num(INSERTION_STRESS_FRACTION * (stage.stress * area))}")
+        ins_chunk = max(1, per // 8)
+        n_ins = int(math.ceil(insertion_time_limit(spec, APPROACH_SPEED) / (ins_chunk * dt)))
+        add(f"variable iins loop {integer(n_ins)}")
+        add("label insert")
+        add('if "${zh} <= ${zgoal}" then "jump SELF inserted"')
+        add(f'if "${{fup}} < ${{fins}}" then "variable vz equal {num(-APPROACH_SPEED)}" else "variable vz equal 0.0"')
+        add(f"run {integer(ins_chunk)}")
+        add("next iins")
+        add("jump SELF insert")
+        add("label inserted")
+        add("variable vz equal 0.0")
+        add(f"set group all type {integer(T_PART)}")
+        add('print "CALIBRAX inserted ${stp} ${zh} ${ztop0} ${zgoal}"')
+
+    def consolidate(stage: Consolidate) -> None:
+        add(f"variable ftgt equal {num(stage.stress * area)}")
+        # approach: straight down at APPROACH_SPEED until the head carries the target load (checked every
+        # eighth of a sample interval: ≤ 5 µm of travel at 0.2 m/s in quick), then the dynamic head takes
+        # over at that speed. (Started earlier, its closed form below would wind up: the unloaded head
+        # falls freely while the speed limit holds it back)
+        add(f"variable vz equal {num(-APPROACH_SPEED)}")
+        app_chunk = max(1, per // 8)
+        n_app = int(math.ceil(0.3 / (app_chunk * dt)))
+        add(f"variable iapp loop {integer(n_app)}")
+        add("label approach")
+        add(f"run {integer(app_chunk)}")
+        add('if "${fup} >= ${ftgt}" then "jump SELF approached"')
+        add("next iapp")
+        add("jump SELF approach")
+        add("label approached")
+        # the head as a rigid body of mass M under the target load, with a damper on v − v_ref (numba_dem's
+        # and YADE's servo, calibrax.core.sheartest.servo), integrated in closed form from the contact (t = 0, v = v0):
+        #   M (v − v0) = ∫(F − F*) dt − c (Δz − ∫v_ref dt),
+        # with ∫(F − F*) dt and ∫v_ref dt running sums (fix ave/time ... ave running × steps × Δt) and v_ref
+        # the head's displacement high-passed over W steps: v_ref = 2 (Δz − ⟨Δz⟩_W) / (W Δt), which is v
+        # for a steady drift (a window mean lags a ramp by W/2 steps); W Δt = 2 τ_ref
+        servo(-APPROACH_SPEED)
+        # back onto whole sample intervals (the approach ran in eighths): every later run is a whole
+        # number of them, so the recording fixes sample on the same steps as the parser expects
+        add(f"variable pad equal {integer(per)}-step%{integer(per)}")
+        add(f'if "${{pad}} < {integer(per)}" then "run ${{pad}}"')
+        # σ averaged over each 3 ms chunk (numba_dem averages the last 1 ms; this tiny bed's σ is too noisy
+        # for that), the head's travel over the chunk
+        add(f"fix cons all ave/time 1 {chunk(3.0e-3)} {chunk(3.0e-3)} v_fup")
+        # numba_dem's rule: at least one preshear rotation of turning (and 10 ms), then until the head
+        # stops sinking with σ on target; at most Procedure.consolidation_time_limit
+        n_cons = int(math.ceil(p.consolidation_time_limit / 3.0e-3))
+        min_chunks = max(4, int(math.ceil(p.consolidation_min_time / 3.0e-3)) + 1)
+        add("variable zprev equal ${zh}")
+        add("variable consok equal 0")
+        add(f"variable icons loop {integer(n_cons)}")
+        add("label cons")
+        add(f"run {chunk(3.0e-3)}")
+        add("variable dz equal abs(v_zh-v_zprev)")
+        add(f"variable serr equal abs(f_cons/{num(stage.stress * area)}-1.0)")
+        add(f'if "${{icons}} >= {integer(min_chunks)} && ${{dz}} < {num(0.005 * d)} && ${{serr}} < 0.05" '
+            'then "variable consok equal 1" "jump SELF consdone"')
+        add("variable zprev equal ${zh}")
+        add("next icons")
+        add("jump SELF cons")
+        add("label consdone")
+        add('print "CALIBRAX consolidated ${stp} ${zh} ${serr} ${consok}"')
+        add("variable omega equal 0.0")
+        add("unfix cons")
 
     steps: list[tuple[str, float, int, str]] = []
 
@@ -487,13 +493,21 @@ def write_inputs(spec: ShearCellSpec, workdir: Path, bench: BenchStart | None = 
         add(f'print "CALIBRAX end {integer(j)} ${{stp}} ${{zh}} ${{nout}}"')
         steps.append((kind, float(stress), nsamples, fname))
 
-    for k, sigma in enumerate(p.shear_stresses):
-        if k > 0:
-            settle(p.preshear_stress)
-        rotate("preshear", p.preshear_stress, p.preshear_rotation, until_steady=True)
-        add(f'print "CALIBRAX bulk {integer(k)} ${{bulk}}"')
-        settle(sigma)
-        rotate("shear", sigma, p.shear_rotation)
+    def fork(stage: Fork) -> None:
+        raise SpecError("procedure.compressibility_stresses", "the LIGGGHTS backend has no compressibility test")
+
+    preshears = 0
+    # the test's stages, the same list every backend runs (calibrax.core.sheartest.procedure_stages)
+    for stage in shear_test_stages(spec):
+        if isinstance(stage, Settle):
+            settle(stage.stress)
+        elif isinstance(stage, Rotate):
+            rotate(stage.kind, stage.stress, stage.rotation, stage.until_steady)
+            if stage.kind == "preshear":
+                add(f'print "CALIBRAX bulk {integer(preshears)} ${{bulk}}"')
+                preshears += 1
+        else:
+            {Pour: pour, InsertBlades: insert_blades, Consolidate: consolidate, Fork: fork}[type(stage)](stage)
     add('print "CALIBRAX done ${stp}"')
     (workdir / SCRIPT_NAME).write_text("\n".join(s) + "\n", encoding="ascii")
     return ScriptPlan(dt=dt, sample_steps=per, steps=tuple(steps), n_particles=len(radii), z_park=z_park,

@@ -42,6 +42,8 @@ class NumbaDEMSimulator:
         spec, SimulationFailed (with the log tail) on NaN, escape or blow-up."""
         import numba
 
+        from calibrax.core.sheartest.stage_records import summarise
+
         from .procedure import RunLog, ShearTestDriver, new_logger
 
         spec.validate()
@@ -61,7 +63,7 @@ class NumbaDEMSimulator:
                 f"dt {spec.time_step:.3e} s, {threads} thread(s)")
             driver = ShearTestDriver(spec, log)
             try:
-                driver.run()
+                summary = summarise(driver.run())
             except SimulationFailed:
                 raise
             except Exception as exc:  # an engine bug must still come back as a failed run
@@ -77,11 +79,11 @@ class NumbaDEMSimulator:
         prov = Provenance(backend=self.name, engine_version=self.version(), spec_hash=spec.spec_hash(),
                           seed=spec.numerics.seed, wall_time=wall, particle_count=driver.sys.n, threads=threads,
                           extra={"time_step": spec.time_step, "simulated_time": driver.time,
-                                 "servo_sigma_errors": driver.sigma_errors,
-                                 "consolidation_time": driver.consolidation_time,
-                                 "consolidation_rotation": driver.consolidation_rotation,
-                                 "insertion_gap_radii": driver.insertion_gap,
+                                 "servo_sigma_errors": summary.sigma_errors,
+                                 "consolidation_time": summary.consolidation_time,
+                                 "consolidation_rotation": summary.consolidation_rotation,
+                                 "insertion_gap_radii": summary.insertion_gap,
                                  "stress_area": "pi*head_radius**2"})
-        return ShearTestResult.from_steps(spec, driver.steps, driver.bulk_density, prov, driver.warnings,
-                                          conditioned_bulk_density=driver.conditioned_bulk_density,
-                                          compression_height=driver.compression_height)
+        return ShearTestResult.from_steps(spec, summary.steps, summary.bulk_density, prov, driver.warnings,
+                                          conditioned_bulk_density=summary.conditioned_bulk_density,
+                                          compression_height=summary.compression_height)

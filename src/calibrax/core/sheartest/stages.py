@@ -33,38 +33,30 @@ UNLOAD_MAX_ROTATION = 0.05
 MAX_SPEED = 20.0
 
 #: consolidation may last this many times its minimum (one preshear rotation) before the backends
-#: give up waiting for the head to settle; consolidations measured at tiny and quick settled within
-#: 1.1–1.8 × the minimum (0.033–0.036 s of 0.02–0.03 s)
+#: give up waiting for the head to settle (measured durations: docs/explanation/shear-test.md#stage-limits)
 CONSOLIDATION_LIMIT_FACTOR = 6.0
-#: ... and at least this rotation's time: with the blades in the bed (INSERTION_STRESS_FRACTION),
-#: consolidations at tiny took 0.06–0.14 s (0.4–0.9 rad at 6 rad/s, 20 seeds), longer than six
-#: times a short preshear's minimum (the smoke test's 0.02 rad: 0.06 s)
+#: ... and at least this rotation's time, rad (with the blades in the bed, consolidations take
+#: longer than six times a short preshear's minimum)
 CONSOLIDATION_LIMIT_ROTATION = 1.0
 
 #: each stress of the compressibility ramp (procedure.compressibility_stresses) is held at least
-#: this long, s, and then until the head has stopped sinking, at most COMPRESSION_MAX_TIME (the
-#: FT4 holds each for 60 s; a DEM bed settles within milliseconds: tiny's consolidations, turning,
-#: within 0.033–0.036 s)
+#: this long, s, and then until the head has stopped sinking, at most COMPRESSION_MAX_TIME, s (the
+#: FT4 holds each for 60 s; a DEM bed settles within milliseconds: docs/explanation/shear-test.md#stage-limits)
 COMPRESSION_MIN_TIME = 6.0e-3
 COMPRESSION_MAX_TIME = 0.05
 
 #: the blades go into the bed under this fraction of the preshear stress, before the bed is
-#: consolidated. Placed above the bed and brought down by the servo at the preshear stress, the
-#: blades never entered it: zero-thickness blade edges on a jammed bed carried the whole 15 kPa,
-#: the space between the blades stayed empty (solid fraction < 0.03 within 1.5 diameters of the
-#: disc, tiny, numba_dem) and τ measured the edges sliding on the bed's top (τ/σ of 0.16 to 0.73
-#: from one 0.15 rad window to the next in one preshear), the largest part of the seed scatter
-#: (benchmarks/shear_diagnostics.py)
+#: consolidated: brought down at the preshear stress, the blades never entered it
+#: (docs/explanation/shear-test.md#blades-and-steady-preshear)
 INSERTION_STRESS_FRACTION = 0.1
 #: particle–particle and particle–head friction while the blades go in (the pour's, numba_dem's
-#: POUR_FRICTION); the material's friction is switched on before consolidation. At the material's
-#: friction the edges did not cut in even at 1.5 kPa.
+#: POUR_FRICTION); the material's friction is switched on before consolidation (at the material's
+#: friction the edges do not cut in: docs/explanation/shear-test.md#stage-limits)
 INSERTION_FRICTION = POUR_FRICTION
 #: the insertion ends when the head's lower face has come down to within INSERTION_TOLERANCE_RADII
 #: particle radii of the top of the poured bed's highest particle (every backend measures that the
-#: same way; one seed in twenty stopped 0.07 radii short at the time limit), or after this many times the time
-#: the head takes to come down by its blades' height and two particle diameters at the approach
-#: speed (then the result warns; :func:`insertion_time_limit`)
+#: same way), or after this many times the time the head takes to come down by its blades' height
+#: and two particle diameters at the approach speed (then the result warns; :func:`insertion_time_limit`)
 INSERTION_TIME_FACTOR = 3.0
 INSERTION_TOLERANCE_RADII = 0.1
 
