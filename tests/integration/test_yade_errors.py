@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -34,8 +35,10 @@ def test_bad_numbers_are_refused_before_any_file(tmp_path, changes):
 
 
 def test_parameter_file_accepts_only_finite_numbers():
-    check_numbers({"a": 1.0, "b": [1, 2.5], "c": {"d": 3}})
-    for bad in ({"a": math.nan}, {"a": "1"}, {"a": [1.0, math.inf]}, {"a": True}, {"a": None}, {"a b": 1.0}):
+    """Numbers, and of text only the script's stage names and record kinds (runner.WORDS)."""
+    check_numbers({"a": 1.0, "b": [1, 2.5], "c": {"d": 3}, "stages": [{"stage": "rotate", "kind": "shear"}]})
+    for bad in ({"a": math.nan}, {"a": "1"}, {"a": [1.0, math.inf]}, {"a": True}, {"a": None}, {"a b": 1.0},
+                {"stage": "fork"}, {"stage": "pour; import os"}):
         with pytest.raises(SpecError):
             check_numbers(bad)
 
@@ -52,6 +55,43 @@ def test_a_fixed_preshear_builds_a_parameter_file_the_script_takes():
     check_numbers(params)
     capped = build_params(_tiny())["steady_schedule"]
     assert len(capped) == 4 and all(isinstance(v, int) and v > 0 for v in capped)
+
+
+@pytest.mark.parametrize("changes", [
+    {},
+    {"procedure": {"preshear_max_rotation": None}},
+    {"procedure": {"shear_stresses": (9000.0,)}},
+])
+def test_the_parameter_file_holds_cores_stage_list(tmp_path, changes):
+    """The script runs core's shear_test_stages as written to params.json (plain data read back
+    equal), not a sequence of its own; the smoke test's list too."""
+    from calibrax.core.sheartest.procedure_stages import shear_test_stages
+    from calibrax_yade.runner import write_params
+    from calibrax_yade.simulator import build_params, stages_from_params
+
+    from tests.bank import smoke_spec
+
+    for spec in (_tiny(**changes), smoke_spec()):
+        path = write_params(tmp_path / "params.json", build_params(spec))
+        written = json.loads(path.read_text())["stages"]
+        assert stages_from_params(written) == shear_test_stages(spec)
+        assert all(isinstance(v, float) for rec in written for k, v in rec.items() if k not in ("stage", "kind"))
+
+
+def test_a_compressibility_fork_is_refused_before_yade_starts(tmp_path):
+    """YADE has no compressibility test: a spec with a ramp is refused before any file is written,
+    and a Fork or Compress stage reaching the stage writer is refused naming the stage."""
+    from calibrax.core.sheartest.procedure_stages import Compress, Fork, Pour
+    from calibrax_yade.simulator import stage_params
+
+    ramp = _tiny(procedure={"compressibility_stresses": (1.0e3, 2.0e3)})
+    with pytest.raises(ConfigError, match="compressibility_test"):
+        YadeSimulator().simulate(ramp, tmp_path / "f")
+    assert not (tmp_path / "f").exists()
+    for stage in (Fork((Compress((1.0e3,)),)), Compress((1.0e3,))):
+        with pytest.raises(SpecError, match=type(stage).__name__) as err:
+            stage_params((Pour(), stage))
+        assert err.value.key == "procedure.compressibility_stresses"
 
 
 def test_unmodelled_effects_are_refused(tmp_path):

@@ -14,7 +14,12 @@ from typing import Any
 
 from calibrax.errors import EngineNotFound, SimulationFailed, SpecError
 
-__all__ = ["find_yade", "yade_version", "script_path", "check_numbers", "write_params", "run_yade", "log_tail"]
+__all__ = ["find_yade", "yade_version", "script_path", "check_numbers", "write_params", "run_yade", "log_tail",
+           "WORDS"]
+
+#: the only text a parameter file may hold: the stage names the script dispatches on and the kinds
+#: of record a rotation writes (calibrax_yade.simulator.stage_params); never text from a config
+WORDS = frozenset({"pour", "insert_blades", "consolidate", "settle", "rotate", "preshear", "shear"})
 
 INSTALL_HINT = "install it with `apt-get install -y yade` (Debian/Ubuntu), or set CALIBRAX_YADE to its path"
 
@@ -51,8 +56,11 @@ def script_path(name: str) -> Path:
 
 
 def check_numbers(value: Any, key: str = "params") -> None:
-    """Raise SpecError unless ``value`` is built only of finite floats/ints (bool excluded), lists
-    of them, and dicts with str keys of them — the only things a parameter file may hold."""
+    """Raise SpecError unless ``value`` is built only of finite floats/ints (bool excluded), words
+    of :data:`WORDS`, lists of them, and dicts with str keys of them — the only things a parameter
+    file may hold."""
+    if isinstance(value, str) and value in WORDS:
+        return
     if isinstance(value, bool) or value is None:
         raise SpecError(key, f"must be a finite number, got {value!r}")
     if isinstance(value, (int, float)):

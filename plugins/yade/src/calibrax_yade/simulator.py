@@ -43,6 +43,8 @@ from calibrax.core.sheartest import (APPROACH_CLEARANCE, APPROACH_SPEED, GRAVITY
                                      POUR_GRAVITY, POUR_SPEED, UNLOAD_MAX_ROTATION, Provenance,
                                      ShearCellSpec, ShearTestResult, StepRecord, base_layer_bounds,
                                      insertion_time_limit, shear_stress_from_torque, steady_schedule)
+from calibrax.core.sheartest.procedure_stages import (Compress, Consolidate, Fork, InsertBlades, Pour, Rotate, Settle,
+                                                      Stage, shear_test_stages)
 from calibrax.errors import SimulationFailed, SpecError
 
 from . import __version__
@@ -50,7 +52,7 @@ from .contact import SHEAR_RESTITUTION, contact_params
 from .geometry import base_mesh, head_mesh, ribs_mesh, vessel_mesh
 from .runner import find_yade, run_yade, script_path, write_params, yade_version
 
-__all__ = ["YadeSimulator", "build_params", "SERVO_SUBSTEPS"]
+__all__ = ["YadeSimulator", "build_params", "stage_params", "stages_from_params", "SERVO_SUBSTEPS"]
 
 #: the head's speed limit while settling and shearing, m/s: YADE's own (its head is a rigid body
 #: under the target load; numba_dem's and LIGGGHTS' servos use 1 m/s). The pour, approach,
@@ -99,11 +101,10 @@ def build_params(spec: ShearCellSpec) -> dict:
         "rib_facets": _flat(ribs_mesh(g.hub_radius, rc, g.base_ribs, g.rib_height)),
         "head_disc_facets": _flat(disc), "head_blade_facets": _flat(blades),
         "radii": [float(r) for r in radii], "positions": _flat(x), "velocities": _flat(v),
-        "preshear_stress": p.preshear_stress, "shear_stresses": [float(s) for s in p.shear_stresses],
-        "rotation_rate": p.rotation_rate, "preshear_rotation": p.preshear_rotation,
-        "shear_rotation": p.shear_rotation, "settle_time": p.settle_time,
+        "stages": stage_params(shear_test_stages(spec)),
+        "rotation_rate": p.rotation_rate, "settle_time": p.settle_time,
         "steady_schedule": _steady_schedule(spec), "steady_tolerance": p.steady_tolerance,
-        "insertion_stress": INSERTION_STRESS_FRACTION * p.preshear_stress,
+        "insertion_stress_fraction": INSERTION_STRESS_FRACTION,
         "insertion_time_limit": insertion_time_limit(spec, APPROACH_SPEED),
         "insertion_tolerance": INSERTION_TOLERANCE_RADII * spec.radius,
         "consolidation_min_time": p.consolidation_min_time, "consolidation_time_limit": p.consolidation_time_limit,
@@ -117,6 +118,57 @@ def build_params(spec: ShearCellSpec) -> dict:
         "wall_rolling": 1.0 if spec.effective_wall_rolling_friction() > 0 else 0.0,
         "wall_rolling_period": float(WALL_ROLLING_PERIOD),
     }
+
+
+#: the stages the script runs, by the name its main() dispatches on; a Compress or a Fork (the
+#: compressibility ramp) is not among them
+STAGE_NAMES = {Pour: "pour", InsertBlades: "insert_blades", Consolidate: "consolidate", Settle: "settle",
+               Rotate: "rotate"}
+ROTATE_KINDS = ("preshear", "shear")
+
+
+def stage_params(stages: tuple[Stage, ...]) -> list[dict]:
+    """The stage list as the parameter file's plain data: ``{"stage": name}`` plus the stage's
+    ``stress`` (Pa), and for a rotation its ``kind``, ``rotation`` (rad) and ``until_steady``
+    (1.0 / 0.0: the file holds no booleans). Names and kinds come from fixed sets
+    (:data:`calibrax_yade.runner.WORDS`), numbers are floats.
+
+    Raises:
+        SpecError: a stage the script cannot run (Compress, Fork: YADE has no compressibility
+            test) or a rotation of another kind, naming it, before anything is written.
+    """
+    out = []
+    for stage in stages:
+        name = STAGE_NAMES.get(type(stage))
+        if name is None:
+            key = "procedure.compressibility_stresses" if isinstance(stage, (Compress, Fork)) else "procedure"
+            raise SpecError(key, f"the yade backend cannot run a {type(stage).__name__} stage "
+                                 "(it has no compressibility test)")
+        rec: dict = {"stage": name}
+        if not isinstance(stage, Pour):
+            rec["stress"] = float(stage.stress)
+        if isinstance(stage, Rotate):
+            if stage.kind not in ROTATE_KINDS:
+                raise SpecError("procedure", f"the yade backend records rotations of kind {ROTATE_KINDS}, "
+                                             f"got {stage.kind!r}")
+            rec.update(kind=stage.kind, rotation=float(stage.rotation), until_steady=1.0 if stage.until_steady else 0.0)
+        out.append(rec)
+    return out
+
+
+def stages_from_params(records: list[dict]) -> tuple[Stage, ...]:
+    """The stages a parameter file's ``stages`` list describes (:func:`stage_params` read back)."""
+    by_name = {name: cls for cls, name in STAGE_NAMES.items()}
+    stages: list[Stage] = []
+    for rec in records:
+        cls = by_name[rec["stage"]]
+        if cls is Pour:
+            stages.append(Pour())
+        elif cls is Rotate:
+            stages.append(Rotate(rec["kind"], rec["stress"], rec["rotation"], until_steady=bool(rec["until_steady"])))
+        else:
+            stages.append(cls(rec["stress"]))
+    return tuple(stages)
 
 
 def _steady_schedule(spec: ShearCellSpec) -> list[int]:

@@ -87,8 +87,7 @@ POUR_FRICTION = {mat_p: POUR_MU, mat_w: min(P["wall_friction"], POUR_MU), mat_b:
 
 # ------------------------------------------------------------------ bodies
 # collision masks: spheres meet spheres and facets, facets never meet facets (the collider's
-# avoidSelfInteractionMask): without them the collider kept ~3 300 facet-facet pairs (head disc
-# fan, blades, vessel, base) that the interaction loop dispatched every step for nothing
+# avoidSelfInteractionMask)
 SPHERE_MASK, FACET_MASK, NO_SELF_MASK = 1, 3, 2
 
 
@@ -133,10 +132,9 @@ head_engine.dead = True  # switched on when the head is placed
 
 def clear_wall_rolling():
     """Take the rolling resistance off the lateral wall's contacts (numba_dem and LIGGGHTS give a
-    wall without friction none). YADE's Ip2 gives every new contact eta's rolling limit, and with it
-    a frictionless vessel carried about a fifth of the head's torque through the particles' rolling
-    moments. Run every wall_rolling_period steps: a new wall contact keeps its rolling stiffness for
-    at most that many steps, then its limit is 0 and its moment is clipped to 0."""
+    wall without friction none; YADE's Ip2 gives every new contact eta's rolling limit: see
+    docs/explanation/yade-contact-law.md). Run every wall_rolling_period steps: a new wall contact
+    keeps its rolling stiffness for at most that many steps, then its limit is 0 and its moment 0."""
     for fid in wall_ids:
         for I in O.interactions.withBody(fid):
             ph = I.phys
@@ -325,11 +323,15 @@ def set_servo(stress, vmax):
     S["vmax"] = vmax
 
 
-def consolidate():
+def insert_blades(stress):
+    """numba_dem's insert_blades: place the head with its blade tips above the bed, its servo tuned
+    for ``stress`` (Pa), and take the turning blades into the bed under insertion_stress_fraction of
+    it with the pour's friction (no rolling resistance) until the head's face is down to the poured
+    bed's highest particle top, at most insertion_time_limit s; then the material's friction."""
     global disc_ref
     top = bed_top()
     highest = max(O.bodies[i].state.pos[2] + O.bodies[i].shape.radius for i in sphere_ids)
-    # blade tips half a diameter above the bed's surface (numba_dem), and in any case above the
+    # blade tips approach_clearance diameters above the bed's surface, and in any case above the
     # highest particle: a blade placed into a sphere would launch it
     z0 = max(top + P["approach_clearance"] * 2.0 * R0, highest + 0.1 * R0) + BLADE_H
     Z_CEIL[0] = z0 + 10.0 * R0
@@ -344,52 +346,14 @@ def consolidate():
     trans.ids = ids
     rot.ids = ids
     head_engine.dead = False
-    mass, damp, tau = servo_gains(P["preshear_stress"], top)
+    mass, damp, tau = servo_gains(stress, top)
     S.update(mass=mass, damp=damp, tau=tau, v=0.0, vref=0.0)
-    set_servo(P["preshear_stress"], P["approach_speed"])
     log("t=%.5f s head placed at %.2f mm (bed top %.2f mm); %d head facets; servo mass %.3g kg, damping %.3g N s/m, "
         "tau_ref %.3g s" % (O.time, z0 * 1e3, top * 1e3, len(ids), mass, damp, tau))
     # the head turns while it descends, so that the blades cut into the bed (as the FT4 does)
     S["omega"] = RATE
-    insert_blades(highest)
-    set_servo(P["preshear_stress"], P["approach_speed"])
-    z_prev = head_z()
-    t0 = O.time
-    phi0 = S["phi"]
-    target = P["preshear_stress"]
-    sigma = float("nan")
-    # numba_dem's rule: at least one preshear rotation of turning (the blades must work their way
-    # in and the bed compact before the first preshear is recorded), then until the head has
-    # stopped sinking (< 1/200 diameter in 3 ms) with sigma (last 1 ms) within 5 % of its target;
-    # at most a multiple of that minimum (calibrax's Procedure.consolidation_time_limit)
-    t_min = P["consolidation_min_time"]
-    t_max = P["consolidation_time_limit"]
-    while True:
-        run_time(2.0e-3, "consolidation")
-        take_accumulators()
-        run_time(1.0e-3, "consolidation")
-        f, _ = take_accumulators()
-        sigma = f / AREA
-        z = head_z()
-        moved = abs(z - z_prev)
-        z_prev = z
-        if O.time - t0 > t_min and moved < 0.005 * 2 * R0 and abs(sigma / target - 1) < 0.05:
-            break
-        if O.time - t0 > t_max:
-            WARN.append("consolidation: the head was still moving after %.3g s (%.3g x one preshear rotation)"
-                        % (t_max, t_max / t_min))
-            break
-    S["omega"] = 0.0
-    log("t=%.5f s consolidated in %.4f s (head turned %.3f rad): head at %.2f mm, sigma = %.0f Pa (target %.0f), "
-        "bulk density %.0f kg/m3" % (O.time, O.time - t0, S["phi"] - phi0, head_z() * 1e3, sigma, target, bulk()))
-
-
-def insert_blades(highest):
-    """numba_dem's insert_blades: the turning blades go into the bed under insertion_stress with the
-    pour's friction (no rolling resistance) until the head's face is down to ``highest`` (m), the
-    poured bed's highest particle top, at most insertion_time_limit s; then the material's friction."""
     switch_friction(POUR_FRICTION, 0.0, 0.0)
-    set_servo(P["insertion_stress"], P["approach_speed"])
+    set_servo(P["insertion_stress_fraction"] * stress, P["approach_speed"])
     t0 = O.time
     goal = highest + P["insertion_tolerance"]
     while head_z() > goal and O.time - t0 < P["insertion_time_limit"]:
@@ -402,6 +366,38 @@ def insert_blades(highest):
                     "bed's top: the blades are not fully in the bed" % (P["insertion_time_limit"], gap))
     log("t=%.5f s blades inserted in %.4f s: head face at %.2f mm, the poured bed's highest particle reached %.2f mm"
         % (O.time, O.time - t0, head_z() * 1e3, highest * 1e3))
+
+
+def consolidate(stress):
+    """numba_dem's consolidation (docs/explanation/shear-test.md): hold ``stress`` (Pa) while turning,
+    at least consolidation_min_time, then until the head has stopped sinking (< 1/200 diameter in
+    3 ms) with sigma (last 1 ms) within 5 % of ``stress``; at most consolidation_time_limit."""
+    set_servo(stress, P["approach_speed"])
+    S["omega"] = RATE
+    z_prev = head_z()
+    t0 = O.time
+    phi0 = S["phi"]
+    sigma = float("nan")
+    t_min = P["consolidation_min_time"]
+    t_max = P["consolidation_time_limit"]
+    while True:
+        run_time(2.0e-3, "consolidation")
+        take_accumulators()
+        run_time(1.0e-3, "consolidation")
+        f, _ = take_accumulators()
+        sigma = f / AREA
+        z = head_z()
+        moved = abs(z - z_prev)
+        z_prev = z
+        if O.time - t0 > t_min and moved < 0.005 * 2 * R0 and abs(sigma / stress - 1) < 0.05:
+            break
+        if O.time - t0 > t_max:
+            WARN.append("consolidation: the head was still moving after %.3g s (%.3g x one preshear rotation)"
+                        % (t_max, t_max / t_min))
+            break
+    S["omega"] = 0.0
+    log("t=%.5f s consolidated in %.4f s (head turned %.3f rad): head at %.2f mm, sigma = %.0f Pa (target %.0f), "
+        "bulk density %.0f kg/m3" % (O.time, O.time - t0, S["phi"] - phi0, head_z() * 1e3, sigma, stress, bulk()))
 
 
 def preshear_drift(tau, sig, m):
@@ -497,19 +493,33 @@ def rotate(kind, stress, rotation, steady=None):
     return rec
 
 
+def run_stage(stage):
+    """One stage of the parameter file's list (calibrax_yade.simulator.stage_params: core's
+    shear_test_stages as data); the plugin refuses any stage not dispatched here before YADE starts."""
+    name = stage["stage"]
+    if name == "pour":
+        pour()
+    elif name == "insert_blades":
+        insert_blades(stage["stress"])
+    elif name == "consolidate":
+        consolidate(stage["stress"])
+    elif name == "settle":
+        settle(stage["stress"])
+    elif name == "rotate":
+        steady = P["steady_schedule"] if stage["until_steady"] else None
+        STEPS.append(rotate(stage["kind"], stage["stress"], stage["rotation"], steady))
+        if stage["kind"] == "preshear":
+            BULK.append(bulk())
+    else:
+        fail("crash", "the script cannot run a %r stage" % (name,))
+
+
 def main():
     import yade.config
     log("YADE %s; %d particles, dt %.3e s, %d thread(s), servo every %d steps"
         % (yade.config.version, N, DT, O.numThreads, NSUB))
-    pour()
-    consolidate()
-    for k, sigma in enumerate(P["shear_stresses"]):
-        if k > 0:
-            settle(P["preshear_stress"])
-        STEPS.append(rotate("preshear", P["preshear_stress"], P["preshear_rotation"], P["steady_schedule"]))
-        BULK.append(bulk())
-        settle(sigma)
-        STEPS.append(rotate("shear", sigma, P["shear_rotation"]))
+    for stage in P["stages"]:
+        run_stage(stage)
     bad = [e for e in SIGMA_ERR if abs(e) > 0.05]
     if bad:
         WARN.append("the servo held sigma within 5 %% of its target in only %d of %d steps (worst %+.1f %%)"
