@@ -13,11 +13,9 @@ def _private_kernel_cache() -> None:
     caller has not chosen one (``make`` and the test suite set NUMBA_CACHE_DIR themselves).
 
     Numba checks a cached kernel against its own file only, not the files it inlines from, so its
-    default cache beside the sources served a benchmark run (``python benchmarks/…``) stale
-    kernels: the diagnosis design's simulations run before a change to geometry.py forced a
-    recompile (2026-12-02) gave other peaks than the same seeds on a fresh cache (its "baseline 4":
-    peak τ/σ 0.971 at 9 kPa against 0.868, the same with the code before that change). Set before
-    any kernel is defined; inherited by the simulations' processes."""
+    default cache beside the sources can serve stale kernels (what that cost once:
+    docs/how-to/run-the-tests.md, "The compiled kernels"). Set before any kernel is defined;
+    inherited by the simulations' processes."""
     if _os.environ.get("NUMBA_CACHE_DIR"):
         return
     from .cache_key import cache_key

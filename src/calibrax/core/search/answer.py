@@ -1,8 +1,7 @@
 """The campaign's answer: the model's recommendation and the region of plausible parameters.
 
-On noisy DEM the best *observed* distance is a lucky seed (issue 18: the "best" points of two
-20-simulation campaigns re-scored 5.0 and 3.8 on new seeds, the truth 1.4). The answer reads the
-Kriging model instead:
+On noisy DEM the best *observed* distance is a lucky seed (docs/explanation/answer.md). The answer
+reads the Kriging model instead:
 
 * the **recommendation** is the minimiser of the posterior mean of the (transformed) distance over
   the box (for :class:`~calibrax.core.search.composite.CompositeKriging`, the expected distance of the
