@@ -82,7 +82,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
     """(simulations, the recommendation on the unit cube) after each batch, from the store: the
     campaign's own answer on its first n points (Sobol: the best observation)."""
     from calibrax import CampaignStore
-    from calibrax.core.studies.campaign import campaign_answer
+    from calibrax.core.search.points import campaign_answer
 
     points = sorted(CampaignStore(config.store).points(), key=lambda p: p.id)
     done = [p for p in points if p.metric is not None and np.isfinite(p.metric.value)]

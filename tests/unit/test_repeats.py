@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrax.core.studies.campaign import DUPLICATE_TOL, screen_repeats
+from calibrax.core.search.points import DUPLICATE_TOL, screen_repeats
 from calibrax.core.search.metric import MetricValue
 from calibrax.core.running.store import PointRecord, SimulationRecord
 

@@ -20,8 +20,8 @@ from typing import Any
 from calibrax.core.data.experiment import Experiment, experiment_fingerprint, load_experiment
 from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_fidelity, is_multi_fidelity
 from calibrax.core.search.parameters import ParameterSpace
-from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
-                                     ShearCellSpec, SizeDistribution)
+from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
+from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
 from calibrax.core.sheartest.spec import ADDED_SPEC_FIELDS
 from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError

@@ -10,7 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.result import ShearTestResult
 
 #: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
 #: lacks is refused by :func:`check_capabilities` before anything runs.

@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from calibrax.core.studies.campaign import Campaign, simulation_workdir
+from calibrax.core.studies.campaign import Campaign
+from calibrax.core.studies.simulation_setup import simulation_workdir
 from calibrax.core.running.executor import ATTEMPTS_LOG
 from calibrax.core.search.metric import SIMULATED_FEATURES, simulated_features
 from calibrax.core.search.parameters import UNITS

@@ -6,7 +6,7 @@ conditioned bulk density and the compressibility ramp.
 
 Made data is never presented as measured: the header and both CSVs begin with a provenance block
 naming the backend, its version, the cell, the spec hash, the material and the effects switched
-on. Replicate seeds lie at or above :data:`calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE`, where no
+on. Replicate seeds lie at or above :data:`EXPERIMENT_SEED_BASE`, where no
 campaign's simulation seed lies.
 """
 
@@ -20,9 +20,13 @@ from typing import Callable
 import yaml
 
 from calibrax.core.data.cellpin import cell_pin
-from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.errors import ConfigError
+
+#: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
+#: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
+EXPERIMENT_SEED_BASE = 2**30
 
 
 def effects_text(spec: ShearCellSpec) -> str:

@@ -36,7 +36,7 @@ from calibrax.core.search.metric import MetricValue, terms_as_features
 
 #: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
 Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
-from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+from calibrax.core.sheartest.result import Provenance, ShearTestResult, StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
 FORMAT = "calibrax-store/1"

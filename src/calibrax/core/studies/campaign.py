@@ -44,7 +44,7 @@ from calibrax.core.search.answer import Answer
 from calibrax.core.config import CampaignConfig
 from calibrax.core.running.executor import SimulationTask
 from calibrax.core.search.metric import describe_simulated
-from calibrax.core.sheartest import ShearTestResult
+from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.core.search.design import sobol_points
 from calibrax.core.registry import get_manager
 from calibrax.core.running.scheduler import Finished, Scheduler
@@ -52,8 +52,7 @@ from calibrax.core.search.summary import CampaignSummary, noise_text
 from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fidelity_levels,
                                  fit_distance_model, observations, screen_repeats, settled)
 from calibrax.core.running.store import CampaignStore, PointRecord
-from calibrax.core.studies.simulation_setup import (EXPERIMENT_SEED_BASE, point_spec, simulation_seed,  # noqa: F401
-                                                     simulation_workdir)
+from calibrax.core.studies.simulation_setup import point_spec, simulation_seed, simulation_workdir
 from calibrax.core.warm_start import WARM_START, take_warm_start
 from calibrax.errors import CalibraxError
 
