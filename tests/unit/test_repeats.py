@@ -8,7 +8,7 @@ import numpy as np
 
 from calibrax.core.search.points import DUPLICATE_TOL, screen_repeats
 from calibrax.core.search.metric import MetricValue
-from calibrax.core.running.store import PointRecord, SimulationRecord
+from calibrax.core.search.records import PointRecord, SimulationRecord
 
 
 def _point(pid: int, unit, status: str) -> PointRecord:

@@ -40,7 +40,7 @@ def effects_text(spec: ShearCellSpec) -> str:
 
 
 def _simulate(simulator_name: str, spec: ShearCellSpec) -> ShearTestResult:
-    from calibrax import get_manager
+    from calibrax.core.registry import get_manager
 
     with tempfile.TemporaryDirectory() as work:
         return get_manager().create("simulator", simulator_name).simulate(spec, Path(work))
@@ -65,7 +65,7 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
     Returns:
         the header YAML's path.
     """
-    from calibrax import get_manager
+    from calibrax.core.registry import get_manager
 
     if first_seed < EXPERIMENT_SEED_BASE:
         raise ConfigError("seed", f"must be ≥ {EXPERIMENT_SEED_BASE}: below it a campaign's simulation could "

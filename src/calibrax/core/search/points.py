@@ -13,8 +13,7 @@ import numpy as np
 
 from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import Answer, answer_from_model
-from calibrax.core.config import CampaignConfig
-from calibrax.core.running.store import PointRecord
+from calibrax.core.search.records import PointRecord
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
 DUPLICATE_TOL = 1e-3
@@ -163,22 +162,24 @@ def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], 
                                 failed_x=np.stack([p.unit for p in failed]) if failed else None)
 
 
-def fidelity_levels(config: CampaignConfig) -> dict[str, float] | None:
-    """{fidelity name: level} of a multi-fidelity campaign, None for one fidelity."""
-    return {f.name: f.level for f in config.fidelities} if config.fidelities else None
+def fidelity_levels(fidelities) -> dict[str, float] | None:
+    """{fidelity name: level} of a multi-fidelity campaign's ``fidelities`` (its config's
+    :class:`~calibrax.core.fidelities.Fidelity` list), None for one fidelity (an empty list)."""
+    return {f.name: f.level for f in fidelities} if fidelities else None
 
 
-def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=None) -> Answer | None:
-    """The campaign's :class:`Answer` from ``points``: ``model`` (default: fitted on the points with
-    the campaign's surrogate options and seed) read against the metric's noise threshold; None with
-    fewer than 3 finished points."""
+def campaign_answer(points: list[PointRecord], space, surrogate: dict[str, str], seed: int,
+                    levels: dict[str, float] | None = None, model=None) -> Answer | None:
+    """The campaign's :class:`Answer` from ``points`` in the parameter ``space``: ``model``
+    (default: fitted on the points with the campaign's ``surrogate`` options, ``seed`` and fidelity
+    ``levels``, :func:`fidelity_levels`) read against the metric's noise threshold; None with fewer
+    than 3 finished points."""
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     if len(finished) < 3:
         return None
-    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed,
-                                                               levels=fidelity_levels(config))
+    model = model if model is not None else fit_distance_model(points, surrogate, seed, levels=levels)
     threshold, rate = noise_threshold(finished)
-    return answer_from_model(model, config.space, threshold, rate, len(finished))
+    return answer_from_model(model, space, threshold, rate, len(finished))
 
 
 __all__ = ["DUPLICATE_TOL", "SETTLED_MOVE", "SETTLED_SHARE", "physically_failed", "observations", "settled",
