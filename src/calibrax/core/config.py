@@ -22,7 +22,7 @@ from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
 from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
-from calibrax.core.sheartest.spec import ADDED_SPEC_FIELDS
+from calibrax.core.resolved import without_added_defaults
 from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError
 
@@ -50,10 +50,6 @@ ROOT_KEYS = {
     "fidelities": "a multi-fidelity campaign's presets, cheapest first, the target last: each a preset name or "
                   "{preset, cost, initial}",
 }
-#: spec fields added after stores existed, with their defaults: left out of the search hash while
-#: they hold them, so that a store made before the field existed still resumes
-ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None,
-                                            **{("cell", *path): d for path, d in ADDED_SPEC_FIELDS.items()}}
 #: the Kriging model's options and their defaults (calibrax.core.search.surrogate)
 SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),
@@ -262,19 +258,6 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
                 raise ConfigError(f"{key}.{opt}", f"must be a mapping of names to numbers, got {value!r}")
             options[opt] = {str(k): _number(f"{key}.{opt}.{k}", v) for k, v in value.items()}
     return name, options
-
-
-def without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
-    """A deep copy of ``resolved`` without the :data:`ADDED_FIELDS` that hold their defaults."""
-    out = json.loads(json.dumps(resolved))
-    for path, default in ADDED_FIELDS.items():
-        *parents, last = path
-        node = out
-        for key in parents:
-            node = node.get(key, {}) if isinstance(node, dict) else {}
-        if isinstance(node, dict) and last in node and node[last] == json.loads(json.dumps(default)):
-            del node[last]
-    return out
 
 
 def _enqueued(raw: Any, space: ParameterSpace) -> tuple[tuple[float, ...], ...]:

@@ -223,7 +223,7 @@ class Campaign:
 
     def _warm_start(self, store: CampaignStore, path: Path) -> None:
         """Start a new store with an earlier one's finished simulations (:func:`take_warm_start`)."""
-        taken, outside = take_warm_start(store, self.config, self.metric, path)
+        taken, outside = take_warm_start(store, self.config.space, self.config.experiment, self.metric, path)
         self._emit("warm_start", f"warm start from {path}: {taken} finished point(s) taken"
                    + (f", {outside} outside this box left out" if outside else ""), points=taken, outside=outside)
 
