@@ -307,6 +307,7 @@ def test_names_are_taken_from_the_module_that_defines_them():
     """No module takes a calibrax name through a module that only passes it on (such as
     studies/campaign.py did for ten names); the core does not even go through a package's
     ``__init__`` or the calibrax package."""
-    files = [path for folder in ("src", "tests", "benchmarks", "examples") for path in sorted((ROOT / folder).rglob("*.py"))]
+    files = [path for folder in ("src", "tests", "benchmarks", "examples")
+             for path in sorted((ROOT / folder).rglob("*.py"))]
     found = names_taken_through_another_module(files)
     assert not found, "names passed on by a module that does not define them:\n" + "\n".join(found)
