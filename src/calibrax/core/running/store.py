@@ -36,7 +36,8 @@ from calibrax.core.search.records import PointRecord, SimulationRecord
 
 #: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
 Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
-from calibrax.core.sheartest.result import Provenance, ShearTestResult, StepRecord
+from calibrax.core.sheartest.result import Provenance, ShearTestResult
+from calibrax.core.sheartest.steps import StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
 FORMAT = "calibrax-store/1"

@@ -15,7 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from calibrax.core.sheartest.physics import critical_time_step
+from calibrax.core.sheartest.timestep import critical_time_step
 from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
 from calibrax.errors import SpecError
 
