@@ -82,7 +82,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
     """(simulations, the recommendation on the unit cube) after each batch, from the store: the
     campaign's own answer on its first n points (Sobol: the best observation)."""
     from calibrax import CampaignStore
-    from calibrax.core.studies.campaign import campaign_answer
+    from calibrax.core.search.points import campaign_answer, fidelity_levels
 
     points = sorted(CampaignStore(config.store).points(), key=lambda p: p.id)
     done = [p for p in points if p.metric is not None and np.isfinite(p.metric.value)]
@@ -92,7 +92,8 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
         if strategy == "sobol":
             out.append((n, min(first, key=lambda p: p.metric.value).unit))
             continue
-        answer = campaign_answer(first, config)
+        answer = campaign_answer(first, config.space, config.surrogate, config.seed,
+                                 fidelity_levels(config.fidelities))
         out.append((n, config.space.to_unit(np.asarray([list(answer.params.values())]))[0]))
     return out
 

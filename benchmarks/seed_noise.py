@@ -22,7 +22,7 @@ fluctuation), by an analysis of variance over seeds and steps (:func:`variance_s
 Material defaults to Table 1 of the reference paper. Each seed's whole result is saved in the
 --cache folder as it finishes, and a seed already there is not run again, so an interrupted run
 resumes and a second metric costs no simulation. --spread-out writes the seed spread of the robust metric's features as a YAML
-fragment for its ``seed_spread`` option. Seeds stay below calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE.
+fragment for its ``seed_spread`` option. Seeds stay below calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE.
 """
 
 from __future__ import annotations
@@ -169,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.variant:
         return compare(args, _variants(args, p))
-    from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
+    from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE
 
     seeds = _seeds(args.seeds)
     if max(seeds) >= EXPERIMENT_SEED_BASE:

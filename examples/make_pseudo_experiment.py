@@ -11,7 +11,7 @@ the bulk density at the preshear stress) and a curves CSV with every shear step'
 
 Made data is never presented as measured: the header names the backend, its version, the cell
 (preset, base), the spec hash, the parameters, effects and seeds. The replicates' seeds are drawn at
-or above calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE (2³⁰), where no campaign's simulation seed lies.
+or above calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE (2³⁰), where no campaign's simulation seed lies.
 """
 
 from __future__ import annotations
@@ -21,8 +21,7 @@ import sys
 from pathlib import Path
 
 from calibrax import ShearCellSpec
-from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
-from calibrax.core.data.pseudo import write_pseudo_experiment
+from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE, write_pseudo_experiment
 
 #: --effect NAME: the spec field it sets
 EFFECTS = {"wall_friction": ("geometry", "wall_friction"), "sigma_log": ("size_distribution", "sigma_log"),

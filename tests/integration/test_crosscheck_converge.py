@@ -14,7 +14,8 @@ import pytest
 import yaml
 
 from calibrax.cli import main
-from calibrax.core.studies.crosscheck import MICRO_CASES, MICRO_TOLERANCE, micro_agreement
+from calibrax.core.sheartest.verification import MICRO_CASES
+from calibrax.core.studies.crosscheck import MICRO_TOLERANCE, micro_agreement
 from calibrax.core.running.store import CampaignStore
 from tests.conftest import ROOT, calibrax_cli, write_double_campaign
 

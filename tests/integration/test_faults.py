@@ -15,7 +15,7 @@ import psutil
 import pytest
 
 from calibrax import CampaignStore, load_config, run_campaign
-from calibrax.core.studies.campaign import DUPLICATE_TOL
+from calibrax.core.search.points import DUPLICATE_TOL
 from tests.conftest import ROOT, double_env, write_double_campaign
 
 

@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from calibrax import get_manager, load_experiment
-from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, simulation_seed
+from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE
+from calibrax.core.studies.simulation_setup import simulation_seed
 from tests.bank import declare_tiny
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -118,7 +118,7 @@ def _at(e: float, mu: float, share: float) -> Answer:
 
 
 def test_the_stopping_rule_waits_for_patience_settled_batches():
-    from calibrax.core.studies.campaign import settled
+    from calibrax.core.search.points import settled
 
     moving = [_at(2e10, 0.30, 0.5), _at(2e10, 0.40, 0.5), _at(2e10, 0.401, 0.5), _at(2e10, 0.402, 0.505)]
     assert not settled(moving, SPACE, 0)  # patience 0: never stop

@@ -17,7 +17,8 @@ from calibrax.core.sheartest.procedure_stages import (Compress, Consolidate, For
                                                       shear_test_stages)
 from calibrax.core.sheartest.stage_records import (CompressRecord, ForkRecord, PourRecord, RotateRecord,
                                                    summarise)
-from calibrax.core.sheartest.stage_runner import RunLog, StageRunner
+from calibrax.core.sheartest.engine_control import RunLog
+from calibrax.core.sheartest.stage_runner import StageRunner
 
 RAMP = (2.0e3, 5.0e3, 10.0e3)
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrax.core.studies.campaign import DUPLICATE_TOL, screen_repeats
+from calibrax.core.search.points import DUPLICATE_TOL, screen_repeats
 from calibrax.core.search.metric import MetricValue
-from calibrax.core.running.store import PointRecord, SimulationRecord
+from calibrax.core.search.records import PointRecord, SimulationRecord
 
 
 def _point(pid: int, unit, status: str) -> PointRecord:

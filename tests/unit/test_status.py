@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrax.core.studies.campaign import simulation_workdir
+from calibrax.core.studies.simulation_setup import simulation_workdir
 from calibrax.core.running.executor import ATTEMPTS_LOG
 from calibrax.core.running.store import CampaignStore
 from calibrax.report.status import status_text

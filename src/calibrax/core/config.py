@@ -20,10 +20,11 @@ from typing import Any
 from calibrax.core.data.experiment import Experiment, experiment_fingerprint, load_experiment
 from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_fidelity, is_multi_fidelity
 from calibrax.core.search.parameters import ParameterSpace
-from calibrax.core.sheartest import (FIDELITY_PRESETS, PROCEDURES, Geometry, Material, Numerics, Procedure,
-                                     ShearCellSpec, SizeDistribution)
 from calibrax.core.options import check_options
-from calibrax.core.sheartest.spec import ADDED_SPEC_FIELDS
+from calibrax.core.resolved import without_added_defaults
+from calibrax.core.search.parameters import check_parameter_capabilities
+from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
+from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
 from calibrax.core.yamlfile import read_yaml
 from calibrax.errors import ConfigError, PluginError, SpecError
 
@@ -51,10 +52,6 @@ ROOT_KEYS = {
     "fidelities": "a multi-fidelity campaign's presets, cheapest first, the target last: each a preset name or "
                   "{preset, cost, initial}",
 }
-#: spec fields added after stores existed, with their defaults: left out of the search hash while
-#: they hold them, so that a store made before the field existed still resumes
-ADDED_FIELDS: dict[tuple[str, ...], Any] = {("cell", "geometry", "wall_rolling_friction"): None,
-                                            **{("cell", *path): d for path, d in ADDED_SPEC_FIELDS.items()}}
 #: the Kriging model's options and their defaults (calibrax.core.search.surrogate)
 SURROGATE_DEFAULTS = {"model": "composite", "transform": "log1p", "noise": "metric"}
 SURROGATE_CHOICES = {"model": ("distance", "composite"), "transform": ("log1p", "identity"),
@@ -139,10 +136,8 @@ def _check_same_preshear(experiment: Experiment, path: Path, spec: ShearCellSpec
     preshears at the same: a 3 kPa test against the 15 kPa procedure compares two different loci."""
     measured, simulated = float(experiment.preshear_stress), spec.procedure.preshear_stress
     if math.isfinite(measured) and not math.isclose(measured, simulated, rel_tol=PRESHEAR_TOLERANCE):
-        from calibrax.core.sheartest.presets import PROCEDURES
-
         same = [name for name, p in PROCEDURES.items()
-                if math.isclose(p.preshear_stress, measured, rel_tol=PRESHEAR_TOLERANCE)]
+                if math.isclose(p["preshear_stress"], measured, rel_tol=PRESHEAR_TOLERANCE)]
         hint = f"; the preset {same[0]!r} preshears at {measured / 1e3:g} kPa" if same else ""
         raise ConfigError("cell.procedure", f"the experiment {path.name} was presheared at {measured / 1e3:g} kPa "
                           f"(preshear_stress_pa), the cell preshears at {simulated / 1e3:g} kPa; set the cell's "
@@ -247,19 +242,6 @@ def _named(key: str, raw: Any, kind: str, default: str | None = None) -> tuple[s
     return name, check_options(key, info.cls, options)
 
 
-def without_added_defaults(resolved: dict[str, Any]) -> dict[str, Any]:
-    """A deep copy of ``resolved`` without the :data:`ADDED_FIELDS` that hold their defaults."""
-    out = json.loads(json.dumps(resolved))
-    for path, default in ADDED_FIELDS.items():
-        *parents, last = path
-        node = out
-        for key in parents:
-            node = node.get(key, {}) if isinstance(node, dict) else {}
-        if isinstance(node, dict) and last in node and node[last] == json.loads(json.dumps(default)):
-            del node[last]
-    return out
-
-
 def _enqueued(raw: Any, space: ParameterSpace) -> tuple[tuple[float, ...], ...]:
     """``enqueue``: a list of {name: value} points inside the box, every parameter given."""
     if not isinstance(raw, list):
@@ -335,30 +317,13 @@ def load_config(path: str | Path) -> CampaignConfig:
 
 
 def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignConfig:
-    """Validate an already-parsed mapping; relative paths are taken from ``base``."""
-    if not isinstance(raw, dict):
-        raise ConfigError("", f"a campaign file must be a mapping of keys {sorted(ROOT_KEYS)}")
-    for key in raw:
-        if not isinstance(key, str) or key not in ROOT_KEYS:
-            allowed = ", ".join(f"{k} ({v})" for k, v in ROOT_KEYS.items())
-            raise ConfigError(str(key), f"unknown key; allowed: {allowed}")
-    for key in REQUIRED:
-        if key not in raw:
-            raise ConfigError(key, f"is required: {ROOT_KEYS[key]}")
+    """Validate an already-parsed mapping; relative paths are taken from ``base``. One parser per
+    section, called in the order their errors are reported."""
+    _check_keys(raw)
     name = _text("name", raw["name"])
-    if "description" in raw and not isinstance(raw["description"], str):
-        # free text: a list or a number is a mistake, not something to drop without a word
-        raise ConfigError("description", f"must be text, got {type(raw['description']).__name__} "
-                                         f"{raw['description']!r}")
-    simulator, sim_options = _named("simulator", raw["simulator"], "simulator")
-    if sim_options:
-        raise ConfigError(f"simulator.{sorted(sim_options)[0]}", "simulators take no options here; "
-                          "set threads under cell.numerics.threads")
-    exp_path = base / _text("experiment", raw["experiment"])
-    try:
-        experiment = load_experiment(exp_path)
-    except ConfigError as exc:
-        raise ConfigError("experiment", str(exc)) from None
+    _check_description(raw)
+    simulator = _simulator(raw["simulator"])
+    exp_path, experiment = _experiment(raw["experiment"], base)
     budget = _mapping("budget", raw.get("budget", {}), {"initial", "iterations", "patience"})
     initial = _integer("budget.initial", budget.get("initial", 4), 2)
     fidelities = campaign_fidelities(raw, initial, build_spec)
@@ -366,72 +331,20 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
     _check_same_preshear(experiment, exp_path, spec)
     space = ParameterSpace.from_config(raw["parameters"])
     metric, metric_options = _named("metric", raw.get("metric"), "metric", default="c_aif")
-    acq_raw = raw.get("acquisition")
-    q, batching = 2, "sync"
-    if isinstance(acq_raw, dict):
-        if "q" in acq_raw:
-            q = _integer("acquisition.q", acq_raw["q"], 1)
-        if "batching" in acq_raw:
-            batching = acq_raw["batching"]
-            if batching not in ("sync", "async"):
-                raise ConfigError("acquisition.batching", f"must be 'sync' (the paper's: a whole batch, then the "
-                                  f"next) or 'async' (a new point as soon as a worker frees up), got {batching!r}")
-        acq_raw = {k: v for k, v in acq_raw.items() if k not in ("q", "batching")}
-    acquisition, acq_options = _named("acquisition", acq_raw, "acquisition", default="mfei" if fidelities else "qei")
+    acquisition, q, batching, acq_options = _acquisition(raw.get("acquisition"), bool(fidelities))
     iterations = _integer("budget.iterations", budget.get("iterations", 8), 0)
     patience = _integer("budget.patience", budget.get("patience", 0), 0)
-    executor, exec_options = _named("executor", raw.get("executor"), "executor", default="local")
-    if "workers" in exec_options and exec_options["workers"] < 1:
-        raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {exec_options['workers']}")
-    if exec_options.get("timeout_s") is not None and exec_options["timeout_s"] <= 0:
-        raise ConfigError("executor.timeout_s", f"must be > 0 s, got {exec_options['timeout_s']}")
-    store = base / _text("store", raw["store"])
-    if store.suffix not in (".h5", ".hdf5"):
-        raise ConfigError("store", f"must name an HDF5 file ending in .h5 or .hdf5, got {store.name!r}")
-    if store.exists() and not store.is_file():
-        raise ConfigError("store", f"{store} exists and is not a file")
+    executor, exec_options = _executor(raw.get("executor"))
+    store = _store(raw["store"], base)
     workdir = base / _text("workdir", raw["workdir"]) if "workdir" in raw else store.with_suffix(".runs")
     seed = _integer("seed", raw.get("seed", 0), 0)
     seeds_per_point = _integer("seeds_per_point", raw.get("seeds_per_point", 1), 1)
-    surrogate = dict(SURROGATE_DEFAULTS)
-    for key, value in _mapping("surrogate", raw.get("surrogate", {}), set(SURROGATE_DEFAULTS)).items():
-        if value not in SURROGATE_CHOICES[key]:
-            raise ConfigError(f"surrogate.{key}", f"must be one of {list(SURROGATE_CHOICES[key])}, got {value!r}")
-        surrogate[key] = value
+    surrogate = _surrogate(raw.get("surrogate", {}))
     enqueue = _enqueued(raw.get("enqueue", []), space)
     warm_start = base / _text("warm_start", raw["warm_start"]) if "warm_start" in raw else None
-    if fidelities:
-        check_multi_fidelity(raw, acquisition, warm_start)
-        if acquisition == "mfkg":  # BoTorch's knowledge gradient needs one GP of the distance over (x, fidelity)
-            surrogate["model"] = "distance"
-    elif is_multi_fidelity(acquisition):
-        raise ConfigError("acquisition", f"{acquisition!r} chooses among fidelities; name them under fidelities "
-                          "(e.g. [tiny, quick]), or use a one-fidelity acquisition such as qei")
-    # Build the plugins once so their own option checks run now, not mid-campaign.
-    from calibrax.core.search.metric import TermsMetric
-    from calibrax.core.registry import get_manager
-    from calibrax.core.simulator import check_capabilities, check_parameter_capabilities
-
-    manager = get_manager()
-    for kind, pname, opts in (("metric", metric, metric_options), ("acquisition", acquisition, acq_options),
-                              ("executor", executor, exec_options)):
-        try:
-            manager.create(kind, pname, **opts)
-        except TypeError as exc:
-            raise ConfigError(kind, str(exc)) from None
-    try:
-        metric_obj = manager.create("metric", metric, **metric_options)
-        metric_obj.scales(experiment) if hasattr(metric_obj, "scales") else None
-        asked = isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite"
-        if asked and not isinstance(metric_obj, TermsMetric):  # by default: the distance model stands in
-            raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
-                              f"(calibrax.core.search.metric.TermsMetric); metric {metric!r} does not: use model: "
-                              "distance, or the metric c_aif or robust")
-        simulator_obj = manager.create("simulator", simulator)
-        check_capabilities(simulator_obj, spec)
-        check_parameter_capabilities(simulator_obj, space)
-    except PluginError as exc:
-        raise ConfigError("simulator", str(exc)) from None
+    _check_fidelities(raw, fidelities, acquisition, warm_start, surrogate)
+    _check_plugins(raw, simulator, spec, space, experiment, (metric, metric_options), (acquisition, acq_options),
+                   (executor, exec_options))
     resolved = {
         "name": name, "simulator": simulator, "experiment": str(exp_path), "cell": spec.to_dict(),
         "parameters": {p.name: {"low": p.low, "high": p.high, "log": p.log} for p in space.parameters},
@@ -452,3 +365,137 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
                           acquisition, q, batching, acq_options, initial, iterations, executor, exec_options, store,
                           workdir, seed, seeds_per_point, resolved, surrogate, enqueue, warm_start, patience,
                           fidelities)
+
+
+# ----------------------------------------------------------------------------- one parser per section
+def _check_keys(raw: Any) -> None:
+    """A mapping of the known keys, the required ones given."""
+    if not isinstance(raw, dict):
+        raise ConfigError("", f"a campaign file must be a mapping of keys {sorted(ROOT_KEYS)}")
+    for key in raw:
+        if not isinstance(key, str) or key not in ROOT_KEYS:
+            allowed = ", ".join(f"{k} ({v})" for k, v in ROOT_KEYS.items())
+            raise ConfigError(str(key), f"unknown key; allowed: {allowed}")
+    for key in REQUIRED:
+        if key not in raw:
+            raise ConfigError(key, f"is required: {ROOT_KEYS[key]}")
+
+
+def _check_description(raw: dict) -> None:
+    if "description" in raw and not isinstance(raw["description"], str):
+        # free text: a list or a number is a mistake, not something to drop without a word
+        raise ConfigError("description", f"must be text, got {type(raw['description']).__name__} "
+                                         f"{raw['description']!r}")
+
+
+def _simulator(raw: Any) -> str:
+    """``simulator``: a plugin's name, no options."""
+    simulator, sim_options = _named("simulator", raw, "simulator")
+    if sim_options:
+        raise ConfigError(f"simulator.{sorted(sim_options)[0]}", "simulators take no options here; "
+                          "set threads under cell.numerics.threads")
+    return simulator
+
+
+def _experiment(raw: Any, base: Path) -> tuple[Path, Experiment]:
+    """``experiment``: the path (from ``base``) and the experiment read from it."""
+    exp_path = base / _text("experiment", raw)
+    try:
+        return exp_path, load_experiment(exp_path)
+    except ConfigError as exc:
+        raise ConfigError("experiment", str(exc)) from None
+
+
+def _acquisition(acq_raw: Any, multi_fidelity: bool) -> tuple[str, int, str, dict[str, Any]]:
+    """``acquisition``: its name, ``q``, ``batching`` and the plugin's options (default qei, or
+    mfei with fidelities)."""
+    q, batching = 2, "sync"
+    if isinstance(acq_raw, dict):
+        if "q" in acq_raw:
+            q = _integer("acquisition.q", acq_raw["q"], 1)
+        if "batching" in acq_raw:
+            batching = acq_raw["batching"]
+            if batching not in ("sync", "async"):
+                raise ConfigError("acquisition.batching", f"must be 'sync' (the paper's: a whole batch, then the "
+                                  f"next) or 'async' (a new point as soon as a worker frees up), got {batching!r}")
+        acq_raw = {k: v for k, v in acq_raw.items() if k not in ("q", "batching")}
+    acquisition, acq_options = _named("acquisition", acq_raw, "acquisition",
+                                      default="mfei" if multi_fidelity else "qei")
+    return acquisition, q, batching, acq_options
+
+
+def _executor(raw: Any) -> tuple[str, dict[str, Any]]:
+    """``executor``: its name (default local) and options, ``workers`` ≥ 1 and ``timeout_s`` > 0."""
+    executor, exec_options = _named("executor", raw, "executor", default="local")
+    if "workers" in exec_options and exec_options["workers"] < 1:
+        raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {exec_options['workers']}")
+    if exec_options.get("timeout_s") is not None and exec_options["timeout_s"] <= 0:
+        raise ConfigError("executor.timeout_s", f"must be > 0 s, got {exec_options['timeout_s']}")
+    return executor, exec_options
+
+
+def _store(raw: Any, base: Path) -> Path:
+    """``store``: an HDF5 file's path (from ``base``), not a folder."""
+    store = base / _text("store", raw)
+    if store.suffix not in (".h5", ".hdf5"):
+        raise ConfigError("store", f"must name an HDF5 file ending in .h5 or .hdf5, got {store.name!r}")
+    if store.exists() and not store.is_file():
+        raise ConfigError("store", f"{store} exists and is not a file")
+    return store
+
+
+def _surrogate(raw: Any) -> dict[str, str]:
+    """``surrogate``: :data:`SURROGATE_DEFAULTS` with the options given, each one of its
+    :data:`SURROGATE_CHOICES`."""
+    surrogate = dict(SURROGATE_DEFAULTS)
+    for key, value in _mapping("surrogate", raw, set(SURROGATE_DEFAULTS)).items():
+        if value not in SURROGATE_CHOICES[key]:
+            raise ConfigError(f"surrogate.{key}", f"must be one of {list(SURROGATE_CHOICES[key])}, got {value!r}")
+        surrogate[key] = value
+    return surrogate
+
+
+def _check_fidelities(raw: dict, fidelities: tuple[Fidelity, ...], acquisition: str, warm_start: Path | None,
+                      surrogate: dict[str, str]) -> None:
+    """A multi-fidelity acquisition with fidelities, and only with them; ``mfkg`` sets the
+    surrogate's model to ``distance`` (BoTorch's knowledge gradient needs one GP of the distance
+    over (x, fidelity))."""
+    if fidelities:
+        check_multi_fidelity(raw, acquisition, warm_start)
+        if acquisition == "mfkg":
+            surrogate["model"] = "distance"
+    elif is_multi_fidelity(acquisition):
+        raise ConfigError("acquisition", f"{acquisition!r} chooses among fidelities; name them under fidelities "
+                          "(e.g. [tiny, quick]), or use a one-fidelity acquisition such as qei")
+
+
+def _check_plugins(raw: dict, simulator: str, spec: ShearCellSpec, space: ParameterSpace, experiment: Experiment,
+                   metric: tuple[str, dict[str, Any]], acquisition: tuple[str, dict[str, Any]],
+                   executor: tuple[str, dict[str, Any]]) -> None:
+    """Build the plugins once so their own option checks run now, not mid-campaign: the metric,
+    acquisition and executor with their options ((name, options) each), the metric's scales on the
+    experiment, the composite model's need of a metric that states its terms, the simulator's
+    capabilities for the spec and for every calibrated field."""
+    from calibrax.core.search.metric import TermsMetric
+    from calibrax.core.registry import get_manager
+    from calibrax.core.simulator import check_capabilities
+
+    manager = get_manager()
+    for kind, (pname, opts) in (("metric", metric), ("acquisition", acquisition), ("executor", executor)):
+        try:
+            manager.create(kind, pname, **opts)
+        except TypeError as exc:
+            raise ConfigError(kind, str(exc)) from None
+    try:
+        metric_obj = manager.create("metric", metric[0], **metric[1])
+        metric_obj.scales(experiment) if hasattr(metric_obj, "scales") else None
+        asked = isinstance(raw.get("surrogate"), dict) and raw["surrogate"].get("model") == "composite"
+        if asked and not isinstance(metric_obj, TermsMetric):  # by default: the distance model stands in
+            raise ConfigError("surrogate.model", f"composite needs a metric that states its distance's terms "
+                              f"(calibrax.core.search.metric.TermsMetric); metric {metric[0]!r} does not: use model: "
+                              "distance, or the metric c_aif or robust")
+        simulator_obj = manager.create("simulator", simulator)
+        check_capabilities(simulator_obj, spec)
+        check_parameter_capabilities(simulator_obj, space)
+    except PluginError as exc:
+        raise ConfigError("simulator", str(exc)) from None

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.errors import ConfigError
 
 #: CPU-seconds per test on one core (docs/how-to/choose-a-preset.md#what-a-test-costs): ``tiny``
@@ -122,7 +122,7 @@ def campaign_fidelities(raw: dict[str, Any], initial: int,
     """A campaign mapping's ``fidelities:`` parsed, each preset built with ``build_spec(cell,
     material)`` on the campaign's ``cell`` with its preset replaced (empty without the key).
     ``cell.preset`` may then be left out, or name the target."""
-    from calibrax.core.sheartest import FIDELITY_PRESETS
+    from calibrax.core.sheartest.presets import FIDELITY_PRESETS
 
     if "fidelities" not in raw:
         return ()

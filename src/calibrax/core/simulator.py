@@ -10,9 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
-from calibrax.core.search.parameters import FIELDS, ParameterSpace
 from calibrax.core.sheartest.fields import declared_fields, get_path
+from calibrax.core.sheartest.result import ShearTestResult
+from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.errors import ConfigError
 
 #: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
@@ -69,13 +69,3 @@ def check_capabilities(simulator: Simulator, spec: ShearCellSpec) -> None:
         raise ConfigError("simulator", f"{simulator.name} cannot model {sorted(missing)}; "
                           f"it models {sorted(simulator.capabilities())}")
 
-
-def check_parameter_capabilities(simulator: Simulator, space: ParameterSpace) -> None:
-    """Refuse a calibrated parameter whose box reaches values the backend cannot model (its
-    declared capability, :class:`~calibrax.core.sheartest.fields.FieldInfo`), naming it."""
-    for p in space.parameters:
-        field = FIELDS.get(p.name)
-        if field is not None and field.capability is not None and field.capability not in simulator.capabilities():
-            raise ConfigError(f"parameters.{p.name}", f"{simulator.name} cannot model {field.capability!r}, which "
-                              f"{field.path} other than {field.info.off!r} needs; it models "
-                              f"{sorted(simulator.capabilities())}")

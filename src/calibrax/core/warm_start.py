@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrax.core.config import CampaignConfig, without_added_defaults
+from calibrax.core.resolved import without_added_defaults
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.errors import CalibraxError, ConfigError
 
@@ -69,10 +69,10 @@ def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 
-def take_warm_start(store, config: CampaignConfig, metric, path: Path) -> tuple[int, int]:
-    """Add every finished simulation of the store at ``path`` whose point lies in the box to
-    ``store`` (batch 0, source :data:`WARM_START`), scored with ``metric`` against the config's
-    experiment. Returns (points taken, points left out as outside the box)."""
+def take_warm_start(store, space: ParameterSpace, experiment, metric, path: Path) -> tuple[int, int]:
+    """Add every finished simulation of the store at ``path`` whose point lies in the box of
+    ``space`` to ``store`` (batch 0, source :data:`WARM_START`), scored with ``metric`` against the
+    campaign's ``experiment``. Returns (points taken, points left out as outside the box)."""
     from calibrax.core.running.store import CampaignStore
 
     earlier = CampaignStore(path)
@@ -82,16 +82,16 @@ def take_warm_start(store, config: CampaignConfig, metric, path: Path) -> tuple[
         if not done:
             continue
         params = p.params()
-        natural = np.asarray([[params[n] for n in config.space.names]])
-        if not all(q.low <= v <= q.high for q, v in zip(config.space.parameters, natural[0])):
+        natural = np.asarray([[params[n] for n in space.names]])
+        if not all(q.low <= v <= q.high for q, v in zip(space.parameters, natural[0])):
             outside += 1
             continue
-        (pid,) = store.add_batch(0, config.space.to_unit(natural), natural, list(config.space.names),
+        (pid,) = store.add_batch(0, space.to_unit(natural), natural, list(space.names),
                                  [[s.seed for s in done]], WARM_START, None)
         results = [earlier.result(p.id, s.index) for s in done]
         value, error = None, ""
         try:
-            value = metric.evaluate(results, config.experiment)
+            value = metric.evaluate(results, experiment)
         except CalibraxError as exc:
             error = str(exc)
         for k, (s, result) in enumerate(zip(done, results)):

@@ -21,7 +21,7 @@ from calibrax.diagnosis.effects import Effect
 #: the box's least half-width around the recommendation, as a fraction of each parameter's range
 MIN_HALF_WIDTH = 0.15
 #: seeds of diagnosis simulations start here: above any campaign's point-indexed seeds in practice,
-#: below calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE as every simulation seed is
+#: below calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE as every simulation seed is
 SEED_BASE = 700_000_000
 
 

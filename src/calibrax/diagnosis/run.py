@@ -35,7 +35,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from calibrax.core.studies.campaign import point_spec
+from calibrax.core.studies.simulation_setup import point_spec
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.running.executor import Executor
 from calibrax.core.search.parameters import ParameterSpace

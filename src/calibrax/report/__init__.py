@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 from typing import Callable
 
-from calibrax.core.studies.campaign import noise_text
+from calibrax.core.search.summary import noise_text
 from calibrax.report import figures
 from calibrax.report.data import CampaignData, load_campaign
 

@@ -15,7 +15,8 @@ import numpy as np
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.parameters import Parameter, ParameterSpace
 from calibrax.core.sheartest import ShearTestResult
-from calibrax.core.running.store import CampaignStore, PointRecord
+from calibrax.core.running.store import CampaignStore
+from calibrax.core.search.records import PointRecord
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError, StoreError
 

@@ -200,7 +200,7 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     recommendation and the edge of its plausible region; returns the file names and the answer's
     statement (:mod:`calibrax.core.search.answer`) with what would narrow it."""
     from calibrax.core.search.answer import REGION_SIGMAS, answer_from_model
-    from calibrax.core.studies.campaign import fit_distance_model
+    from calibrax.core.search.points import fit_distance_model
     from calibrax.core.config import SURROGATE_DEFAULTS
 
     done = data.done

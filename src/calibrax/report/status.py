@@ -11,11 +11,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from calibrax.core.studies.campaign import Campaign, simulation_workdir
+from calibrax.core.studies.campaign import Campaign
+from calibrax.core.studies.simulation_setup import simulation_workdir
 from calibrax.core.running.executor import ATTEMPTS_LOG
 from calibrax.core.search.metric import SIMULATED_FEATURES, simulated_features
 from calibrax.core.search.parameters import UNITS
-from calibrax.core.running.store import CampaignStore, PointRecord
+from calibrax.core.running.store import CampaignStore
+from calibrax.core.search.records import PointRecord
 
 #: display name and unit of the metric's features named ``<stem>_exp`` (others: the stem, no unit)
 FEATURE_LABELS = {"cohesion": ("C", " Pa"), "aif": ("AIF", "°"), "bulk_density": ("bulk density", " kg/m³")}

@@ -15,7 +15,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Ellipse  # noqa: E402
 
 from calibrax.core.studies.convergence import DENSITY_TOLERANCE, Verdict, inertial_numbers  # noqa: E402
-from calibrax.core.studies.crosscheck import MICRO_CASES, Agreement, MicroRow, micro_errors  # noqa: E402
+from calibrax.core.sheartest.verification import MICRO_CASES
+from calibrax.core.studies.crosscheck import Agreement, MicroRow, micro_errors
 from calibrax.core.sheartest import BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION  # noqa: E402
 from calibrax.core.studies.study import CaseOutcome  # noqa: E402
 from calibrax.report.figures import save_figure  # noqa: E402

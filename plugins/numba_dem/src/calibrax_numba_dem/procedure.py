@@ -9,7 +9,8 @@ import logging
 import time
 
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax.core.sheartest.stage_runner import RunLog, StageRunner
+from calibrax.core.sheartest.engine_control import RunLog
+from calibrax.core.sheartest.stage_runner import StageRunner
 
 from .engine import DEMSystem
 from .shear_engine import SHEAR_SPEED_LIMIT, NumbaShearEngine

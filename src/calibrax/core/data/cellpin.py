@@ -18,7 +18,7 @@ import json
 import math
 from typing import Any
 
-from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.spec import ShearCellSpec
 
 #: the spec's sections a fidelity preset decides
 PINNED_SECTIONS = ("geometry", "procedure", "numerics")

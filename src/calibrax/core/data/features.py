@@ -26,7 +26,7 @@ from calibrax.core.sheartest.yieldlocus import YieldLocus
 
 if TYPE_CHECKING:  # pragma: no cover
     from calibrax.core.data.experiment import Experiment
-    from calibrax.core.sheartest import ShearTestResult
+    from calibrax.core.sheartest.result import ShearTestResult
 
 __all__ = ["step_mean", "feature_stress", "FeatureDef", "FEATURES", "CurveShape", "curve_shape", "step_suffix",
            "feature_def", "result_features", "experiment_features", "FeatureSummary", "summarise", "STILL_RISING_POSITION"]
@@ -143,7 +143,7 @@ def curve_shape(rotation: np.ndarray, shear_stress: np.ndarray, target_stress: f
     peak shape (curvature, peak rotation, prominence and softening are NaN); its ``peak_tau`` is
     still its largest running mean, which is what an FT4 reports as the peak.
     """
-    from calibrax.core.sheartest import find_peak
+    from calibrax.core.sheartest.peaks import find_peak
 
     rot = np.asarray(rotation, dtype=float)
     tau = np.asarray(shear_stress, dtype=float)

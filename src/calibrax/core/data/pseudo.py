@@ -6,7 +6,7 @@ conditioned bulk density and the compressibility ramp.
 
 Made data is never presented as measured: the header and both CSVs begin with a provenance block
 naming the backend, its version, the cell, the spec hash, the material and the effects switched
-on. Replicate seeds lie at or above :data:`calibrax.core.studies.campaign.EXPERIMENT_SEED_BASE`, where no
+on. Replicate seeds lie at or above :data:`EXPERIMENT_SEED_BASE`, where no
 campaign's simulation seed lies.
 """
 
@@ -20,9 +20,13 @@ from typing import Callable
 import yaml
 
 from calibrax.core.data.cellpin import cell_pin
-from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
+from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.errors import ConfigError
+
+#: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
+#: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
+EXPERIMENT_SEED_BASE = 2**30
 
 
 def effects_text(spec: ShearCellSpec) -> str:
@@ -36,7 +40,7 @@ def effects_text(spec: ShearCellSpec) -> str:
 
 
 def _simulate(simulator_name: str, spec: ShearCellSpec) -> ShearTestResult:
-    from calibrax import get_manager
+    from calibrax.core.registry import get_manager
 
     with tempfile.TemporaryDirectory() as work:
         return get_manager().create("simulator", simulator_name).simulate(spec, Path(work))
@@ -61,7 +65,7 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
     Returns:
         the header YAML's path.
     """
-    from calibrax import get_manager
+    from calibrax.core.registry import get_manager
 
     if first_seed < EXPERIMENT_SEED_BASE:
         raise ConfigError("seed", f"must be ≥ {EXPERIMENT_SEED_BASE}: below it a campaign's simulation could "

@@ -23,8 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable, Protocol, runtime_checkable
 
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult
 from calibrax.core.options import Option
+from calibrax.core.sheartest.result import ShearTestResult
+from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.errors import CalibraxError, SimulationFailed
 
 

@@ -24,7 +24,7 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 from calibrax.core.running.executor import SimulationTask, StartTracker, engine_wall_time
-from calibrax.core.sheartest import ShearTestResult
+from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.errors import SimulationFailed
 
 

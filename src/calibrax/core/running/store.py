@@ -24,7 +24,6 @@ import json
 import os
 import shutil
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -33,10 +32,12 @@ import numpy as np
 
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.metric import MetricValue, terms_as_features
+from calibrax.core.search.records import PointRecord, SimulationRecord
 
 #: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
 Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
-from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+from calibrax.core.sheartest.result import Provenance, ShearTestResult
+from calibrax.core.sheartest.steps import StepRecord
 from calibrax.errors import StoreError, StoreLockedError
 
 FORMAT = "calibrax-store/1"
@@ -48,49 +49,6 @@ RESULT_ARRAYS = ("peak_shear_stress", "peak_normal_stress", "target_normal_stres
                  "preshear_rotation", "preshear_drift", "compression_stress", "compression_height")
 #: a result's scalars, stored beside its arrays (stores written before they existed read as NaN)
 RESULT_SCALARS = ("conditioned_bulk_density",)
-
-
-@dataclass
-class SimulationRecord:
-    """One simulation of a point (one seed)."""
-
-    index: int
-    seed: int
-    status: str  # "pending" | "done" | "failed"
-    wall_time: float = float("nan")
-    reason: str = ""
-    log_tail: str = ""
-    kind: str = ""
-    provenance: dict[str, Any] = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-
-
-@dataclass
-class PointRecord:
-    """One proposed parameter point and what became of it."""
-
-    id: int
-    batch: int
-    unit: np.ndarray
-    natural: np.ndarray
-    names: list[str]
-    acquisition: str
-    sims: list[SimulationRecord]
-    metric: MetricValue | None = None
-    #: the fidelity preset it was simulated at, in a multi-fidelity campaign ("": the campaign's cell)
-    fidelity: str = ""
-
-    @property
-    def status(self) -> str:
-        """"done" (metric known), "failed" (every simulation finished, no metric) or "pending"."""
-        if self.metric is not None:
-            return "done"
-        if self.sims and all(s.status != "pending" for s in self.sims):
-            return "failed"
-        return "pending"
-
-    def params(self) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(self.names, self.natural)}
 
 
 def _fsync_path(path: Path) -> None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from calibrax.core.data.experiment import Experiment
-from calibrax.core.sheartest import ShearTestResult
+from calibrax.core.sheartest.result import ShearTestResult
 
 
 #: the simulated features a metric may state, as logs and status show them: (feature key, label,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -188,3 +189,16 @@ def allowed_names() -> str:
     """The parameter names a campaign may calibrate, for error messages: every calibratable dotted
     path; a material field may also be named bare."""
     return f"{sorted(n for n in FIELDS if '.' in n)} (a material field also by its bare name, e.g. sliding_friction)"
+
+
+def check_parameter_capabilities(simulator: Any, space: ParameterSpace) -> None:
+    """Refuse a calibrated parameter whose box reaches values the backend ``simulator`` (a
+    :class:`~calibrax.core.simulator.Simulator`: its ``name`` and ``capabilities()``) cannot model,
+    naming the parameter and the capability its declaration gives
+    (:class:`~calibrax.core.sheartest.fields.FieldInfo`)."""
+    for p in space.parameters:
+        field = FIELDS.get(p.name)
+        if field is not None and field.capability is not None and field.capability not in simulator.capabilities():
+            raise ConfigError(f"parameters.{p.name}", f"{simulator.name} cannot model {field.capability!r}, which "
+                              f"{field.path} other than {field.info.off!r} needs; it models "
+                              f"{sorted(simulator.capabilities())}")

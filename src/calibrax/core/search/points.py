@@ -13,8 +13,8 @@ import numpy as np
 
 from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import Answer, answer_from_model
-from calibrax.core.config import CampaignConfig
-from calibrax.core.running.store import PointRecord
+from calibrax.core.search.models import TrainingData, fit_surrogate
+from calibrax.core.search.records import PointRecord
 from calibrax.errors import FailureKind
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
@@ -114,74 +114,42 @@ def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], see
                        obs: Observations | None = None, levels: dict[str, float] | None = None):
     """A :class:`~calibrax.core.search.surrogate.Kriging` model of the points' distances (penalised
     failures included) with the options ``surrogate`` ({model, transform, noise}); None with < 2
-    points. ``model: composite`` (the default) fits :func:`fit_composite_model` instead.
+    points. ``model: composite`` (the default) fits a composite model instead
+    (:func:`~calibrax.core.search.models.fit_surrogate` picks the model).
     ``noise: metric`` takes the noise prior from the metric's threshold
     (:func:`~calibrax.core.search.surrogate.noise_sd_from_threshold`); ``fitted`` leaves it free. ``obs``:
     the points' :func:`observations`, when the caller has them already. With ``levels`` ({fidelity
     name: level}), a multi-fidelity campaign's
     :class:`~calibrax.core.search.multifidelity.MultiFidelityKriging`, read at the target."""
-    from calibrax.core.search.surrogate import Kriging, noise_sd_from_threshold
-
     obs = observations(points, levels=levels) if obs is None else obs
     if len(obs.y) < 2:
         return None
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
-    if obs.level is not None:
-        from calibrax.core.search.composite import composite_ready
-        from calibrax.core.search.multifidelity import MultiFidelityComposite, MultiFidelityKriging
-
-        terms = [p.metric.terms() for p in finished]
-        if surrogate.get("model", "composite") == "composite" and len(finished) >= 2 and composite_ready(terms):
-            failed = [p for p in points if physically_failed(p)]
-            return MultiFidelityComposite.fit_levels(
-                np.stack([p.unit for p in finished]), np.asarray([levels[p.fidelity] for p in finished]), terms,
-                np.asarray([p.metric.value for p in finished]), seed,
-                failed_x=np.stack([p.unit for p in failed]) if failed else None)
-        threshold, _ = noise_threshold(finished)
-        return MultiFidelityKriging.fit(obs.x, obs.level, obs.y, seed, transform=surrogate.get("transform", "log1p"),
-                                        threshold=threshold if surrogate.get("noise", "metric") == "metric" else math.nan)
-    if surrogate.get("model", "composite") == "composite":
-        model = fit_composite_model(finished, [p for p in points if physically_failed(p)], seed)
-        if model is not None:
-            return model
+    failed = [p for p in points if physically_failed(p)]
     threshold, _ = noise_threshold(finished)
-    noise_sd = noise_sd_from_threshold(threshold) if surrogate.get("noise", "metric") == "metric" else None
-    return Kriging.fit(obs.x, obs.y, seed=seed, transform=surrogate.get("transform", "log1p"), noise_sd=noise_sd)
+    return fit_surrogate(TrainingData(obs, finished, failed, levels, threshold), surrogate, seed)
 
 
-def fit_composite_model(finished: list[PointRecord], failed: list[PointRecord], seed: int):
-    """The :class:`~calibrax.core.search.composite.CompositeKriging` model of the finished points' distance
-    terms, ``failed`` (physically failed points) as penalties; None with fewer than 2 finished
-    points or when their metrics state no shared terms (the caller then falls back to the distance
-    model)."""
-    from calibrax.core.search.composite import CompositeKriging, composite_ready
-
-    terms = [p.metric.terms() for p in finished]
-    if len(finished) < 2 or not composite_ready(terms):
-        return None
-    return CompositeKriging.fit(np.stack([p.unit for p in finished]), terms,
-                                np.asarray([p.metric.value for p in finished]), seed=seed,
-                                failed_x=np.stack([p.unit for p in failed]) if failed else None)
+def fidelity_levels(fidelities) -> dict[str, float] | None:
+    """{fidelity name: level} of a multi-fidelity campaign's ``fidelities`` (its config's
+    :class:`~calibrax.core.fidelities.Fidelity` list), None for one fidelity (an empty list)."""
+    return {f.name: f.level for f in fidelities} if fidelities else None
 
 
-def fidelity_levels(config: CampaignConfig) -> dict[str, float] | None:
-    """{fidelity name: level} of a multi-fidelity campaign, None for one fidelity."""
-    return {f.name: f.level for f in config.fidelities} if config.fidelities else None
-
-
-def campaign_answer(points: list[PointRecord], config: CampaignConfig, model=None) -> Answer | None:
-    """The campaign's :class:`Answer` from ``points``: ``model`` (default: fitted on the points with
-    the campaign's surrogate options and seed) read against the metric's noise threshold; None with
-    fewer than 3 finished points."""
+def campaign_answer(points: list[PointRecord], space, surrogate: dict[str, str], seed: int,
+                    levels: dict[str, float] | None = None, model=None) -> Answer | None:
+    """The campaign's :class:`Answer` from ``points`` in the parameter ``space``: ``model``
+    (default: fitted on the points with the campaign's ``surrogate`` options, ``seed`` and fidelity
+    ``levels``, :func:`fidelity_levels`) read against the metric's noise threshold; None with fewer
+    than 3 finished points."""
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     if len(finished) < 3:
         return None
-    model = model if model is not None else fit_distance_model(points, config.surrogate, config.seed,
-                                                               levels=fidelity_levels(config))
+    model = model if model is not None else fit_distance_model(points, surrogate, seed, levels=levels)
     threshold, rate = noise_threshold(finished)
-    return answer_from_model(model, config.space, threshold, rate, len(finished))
+    return answer_from_model(model, space, threshold, rate, len(finished))
 
 
 __all__ = ["DUPLICATE_TOL", "SETTLED_MOVE", "SETTLED_SHARE", "physically_failed", "observations", "settled",
-           "screen_repeats", "noise_threshold", "fit_distance_model", "fit_composite_model", "fidelity_levels",
+           "screen_repeats", "noise_threshold", "fit_distance_model", "fidelity_levels",
            "campaign_answer"]

@@ -32,10 +32,12 @@ from calibrax.core.sheartest.peaks import (FIXED_PRESHEAR_STEADY_FRACTION, find_
                                            preshear_steady_part, running_mean_width, steady_schedule,
                                            steady_window_samples, stress_at_peak)
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, GRAVITY, base_layer_bounds,
-                                             base_shear_capacity, base_slip, critical_time_step, inertial_number,
+                                             base_shear_capacity, base_slip, inertial_number,
                                              layer_spin, locus_warning, shear_stress_from_torque, steady_base_load)
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES, STEADY_PRESHEAR
-from calibrax.core.sheartest.result import LOST_BED_FRACTION, Provenance, ShearTestResult, StepRecord
+from calibrax.core.sheartest.result import LOST_BED_FRACTION, Provenance, ShearTestResult
+from calibrax.core.sheartest.steps import StepRecord
+from calibrax.core.sheartest.timestep import critical_time_step
 from calibrax.core.sheartest.spec import Geometry, Material, Numerics, Procedure, ShearCellSpec, SizeDistribution
 from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MAX_TIME,
                                             COMPRESSION_MIN_TIME, CONSOLIDATION_LIMIT_FACTOR,

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.spec import ShearCellSpec
 
 #: Standard deviation of each initial velocity component, m/s.
 INITIAL_SPEED_SD = 0.1

@@ -1,5 +1,5 @@
-"""Physics of the cell that every backend and every result reads the same way: the critical time
-step, τ from the head's torque, the inertial number, what the base can hold and whether the bed
+"""Physics of the cell that every backend and every result reads the same way (the critical time
+step is :mod:`calibrax.core.sheartest.timestep`'s): τ from the head's torque, the inertial number, what the base can hold and whether the bed
 slid on it, and whether a yield locus looks physical."""
 
 from __future__ import annotations
@@ -12,18 +12,8 @@ import numpy as np
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 
 if TYPE_CHECKING:
-    from calibrax.core.sheartest.result import StepRecord
+    from calibrax.core.sheartest.steps import StepRecord
     from calibrax.core.sheartest.spec import ShearCellSpec
-
-def critical_time_step(radius: float, density: float, reduced_modulus: float, stress: float) -> float:
-    """The paper's eq. (1): Δt_crit = R (4/3)^(2/3) π^(1/3) √ρ σ0^(−1/6) Ẽ^(−1/3), s.
-
-    Args:
-        radius: R, m. density: ρ, kg/m³. reduced_modulus: Ẽ = E/(1−ν²), Pa. stress: σ0, Pa.
-    """
-    return radius * (4.0 / 3.0) ** (2.0 / 3.0) * math.pi ** (1.0 / 3.0) * math.sqrt(density) \
-        * stress ** (-1.0 / 6.0) * reduced_modulus ** (-1.0 / 3.0)
-
 
 def shear_stress_from_torque(torque: np.ndarray | float, head_radius: float) -> np.ndarray | float:
     """τ = 3T / (2π R_head³), Pa, from the head torque T (N·m): uniform τ over the head's disc."""

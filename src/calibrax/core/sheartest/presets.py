@@ -5,17 +5,16 @@ from __future__ import annotations
 
 from typing import Any
 
-from calibrax.core.sheartest.spec import Procedure
-
 #: Procedure presets: the paper's, the FT4 standard shear test of ASTM D7891 (9 kPa preshear), and
 #: the FT4's low-stress standard (3 kPa preshear; shear steps at 2.0, 1.75, 1.5, 1.25 and 1.0 kPa as
 #: Freeman Technology's 3 kPa method sets them: check them against your instrument's method file).
 #: The low-stress test is where a cohesive powder differs most: the Bond number of a powder
 #: (:mod:`calibrax.core.sheartest.cohesion`, taken at 15 kPa) is five times larger at 3 kPa.
-PROCEDURES: dict[str, Procedure] = {
-    "paper": Procedure(preshear_stress=15.0e3, shear_stresses=(9.0e3, 8.0e3, 7.0e3, 6.0e3)),
-    "astm_d7891": Procedure(preshear_stress=9.0e3, shear_stresses=(7.0e3, 6.0e3, 5.0e3, 4.0e3, 3.0e3)),
-    "ft4_3kpa": Procedure(preshear_stress=3.0e3, shear_stresses=(2.0e3, 1.75e3, 1.5e3, 1.25e3, 1.0e3)),
+#: Each is the Procedure fields it sets (the stresses); a fidelity preset sets the rest.
+PROCEDURES: dict[str, dict[str, Any]] = {
+    "paper": {"preshear_stress": 15.0e3, "shear_stresses": (9.0e3, 8.0e3, 7.0e3, 6.0e3)},
+    "astm_d7891": {"preshear_stress": 9.0e3, "shear_stresses": (7.0e3, 6.0e3, 5.0e3, 4.0e3, 3.0e3)},
+    "ft4_3kpa": {"preshear_stress": 3.0e3, "shear_stresses": (2.0e3, 1.75e3, 1.5e3, 1.25e3, 1.0e3)},
 }
 
 #: Fidelity presets: cell size in particle diameters (H/D = 0.88 as the paper's 12k…200k beds),

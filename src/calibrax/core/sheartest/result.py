@@ -13,40 +13,13 @@ from calibrax.core.sheartest.peaks import find_peak, preshear_drift, preshear_st
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, base_slip, inertial_number,
                                              locus_warning, steady_base_load)
 from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.steps import StepRecord
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import SimulationFailed
 
 #: a step whose mean measured σ is below this fraction of its target lost the bed (the servo let the
 #: head lift off): the simulation is a failure, not a result (seen: LIGGGHTS' PI servo at μr = 0)
 LOST_BED_FRACTION = 0.5
-
-
-@dataclass(frozen=True)
-class StepRecord:
-    """Time series of one preshear or shear step, each array shape (n,).
-
-    Attributes:
-        kind: "preshear" | "shear".
-        target_stress: σ the servo holds, Pa.
-        time: s since the start of the test. rotation: head rotation since the step's start, rad.
-        shear_stress: τ from the head torque, Pa. normal_stress: σ measured on the head, Pa.
-        bed_height: height of the head's lower face (blade tips excluded) above the base, m.
-        base_spin: mean angular velocity about the cell's axis of the particles in the layer just
-            above the base (just above the ribs' tops where the base has ribs: centres within one
-            particle diameter of it), rad/s; compared with the head's rotation rate it says whether
-            the bed slid on its base (:func:`base_slip`). Empty where a backend did not record it.
-    """
-
-    kind: str
-    target_stress: float
-    time: np.ndarray
-    rotation: np.ndarray
-    shear_stress: np.ndarray
-    normal_stress: np.ndarray
-    bed_height: np.ndarray
-    base_spin: np.ndarray = field(default_factory=lambda: np.empty(0))
-
-    CHANNELS = ("time", "rotation", "shear_stress", "normal_stress", "bed_height", "base_spin")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ from typing import Any, Literal
 import numpy as np
 
 from calibrax.core.sheartest.fields import declared, set_paths
-from calibrax.core.sheartest.physics import critical_time_step
+from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
+from calibrax.core.sheartest.timestep import critical_time_step
 from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
 from calibrax.errors import SpecError
 
@@ -309,8 +310,6 @@ class ShearCellSpec:
             overrides: ``material=Material(...)``, ``radius=...``, ``numerics={...}`` etc.; dicts
                 update the preset's sub-dataclass field by field.
         """
-        from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
-
         if fidelity not in FIDELITY_PRESETS:
             raise SpecError("cell.preset", f"unknown fidelity preset {fidelity!r}; allowed: {sorted(FIDELITY_PRESETS)}")
         if procedure not in PROCEDURES:
@@ -329,7 +328,7 @@ class ShearCellSpec:
             base_ribs=p["base_ribs"],
             rib_height=d,
         )
-        proc = dataclasses.replace(PROCEDURES[procedure], **p["procedure"])
+        proc = Procedure(**{**PROCEDURES[procedure], **p["procedure"]})
         numerics = Numerics(**p["numerics"])
         spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
         return spec.replace(**overrides)

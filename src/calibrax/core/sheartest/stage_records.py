@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Union
 
-from calibrax.core.sheartest.result import StepRecord
+from calibrax.core.sheartest.steps import StepRecord
 
 
 @dataclass(frozen=True)

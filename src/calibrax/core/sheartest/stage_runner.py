@@ -21,7 +21,7 @@ from calibrax.core.sheartest.peaks import preshear_drift, steady_schedule
 from calibrax.core.sheartest.physics import GRAVITY, base_layer_bounds, layer_spin, shear_stress_from_torque
 from calibrax.core.sheartest.procedure_stages import (Compress, Consolidate, Fork, InsertBlades, Pour, Rotate,
                                                       Settle, Stage, shear_test_stages)
-from calibrax.core.sheartest.result import StepRecord
+from calibrax.core.sheartest.steps import StepRecord
 from calibrax.core.sheartest.stage_records import (CompressRecord, ConsolidateRecord, ForkRecord, InsertRecord,
                                                    PourRecord, Record, RotateRecord, SettleRecord)
 from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, COMPRESSION_MAX_TIME,

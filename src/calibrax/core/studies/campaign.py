@@ -44,16 +44,16 @@ from calibrax.core.search.answer import Answer
 from calibrax.core.config import CampaignConfig
 from calibrax.core.running.executor import SimulationTask
 from calibrax.core.search.metric import describe_simulated
-from calibrax.core.sheartest import ShearTestResult
+from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.core.search.design import sobol_points
 from calibrax.core.registry import get_manager
 from calibrax.core.running.scheduler import Finished, Scheduler
 from calibrax.core.search.summary import CampaignSummary, noise_text
 from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fidelity_levels,
                                  fit_distance_model, observations, screen_repeats, settled)
-from calibrax.core.running.store import CampaignStore, PointRecord
-from calibrax.core.studies.simulation_setup import (EXPERIMENT_SEED_BASE, point_spec, simulation_seed,  # noqa: F401
-                                                     simulation_workdir)
+from calibrax.core.running.store import CampaignStore
+from calibrax.core.search.records import PointRecord
+from calibrax.core.studies.simulation_setup import point_spec, simulation_seed, simulation_workdir
 from calibrax.core.warm_start import WARM_START, take_warm_start
 from calibrax.errors import CalibraxError
 
@@ -223,7 +223,7 @@ class Campaign:
 
     def _warm_start(self, store: CampaignStore, path: Path) -> None:
         """Start a new store with an earlier one's finished simulations (:func:`take_warm_start`)."""
-        taken, outside = take_warm_start(store, self.config, self.metric, path)
+        taken, outside = take_warm_start(store, self.config.space, self.config.experiment, self.metric, path)
         self._emit("warm_start", f"warm start from {path}: {taken} finished point(s) taken"
                    + (f", {outside} outside this box left out" if outside else ""), points=taken, outside=outside)
 
@@ -241,7 +241,8 @@ class Campaign:
         """Store (and log) the campaign's answer from ``model`` fitted on ``points`` (default: refit
         on every point in the store); nothing with fewer than 3 finished points."""
         points = store.points() if points is None else points
-        answer = campaign_answer(points, self.config, model)
+        cfg = self.config
+        answer = campaign_answer(points, cfg.space, cfg.surrogate, cfg.seed, fidelity_levels(cfg.fidelities), model)
         if answer is None:
             return
         n = answer.n_points
@@ -331,7 +332,7 @@ class Campaign:
         """``q`` points (unit cube, (q, d)), what proposed them, the model's hyperparameters and,
         in a multi-fidelity campaign, the fidelity each runs at (else None)."""
         cfg = self.config
-        levels = fidelity_levels(cfg)
+        levels = fidelity_levels(cfg.fidelities)
         obs = observations(points, levels=levels)
         seed = cfg.seed * 7919 + batch
         x_pending = np.stack([p.unit for p in pending]) if pending else None

@@ -16,7 +16,8 @@ import math
 from dataclasses import dataclass
 
 from calibrax.core.config import CampaignConfig
-from calibrax.core.sheartest import ShearCellSpec, inertial_number
+from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.physics import inertial_number
 from calibrax.core.studies.study import CaseOutcome, StudyCase
 from calibrax.errors import ConfigError, SpecError
 

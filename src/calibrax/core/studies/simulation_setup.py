@@ -4,13 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE
 from calibrax.core.search.parameters import spec_values
-from calibrax.core.sheartest import ShearCellSpec
-
-#: campaign simulations draw their seeds below this; experiments made by simulation (pseudo-
-#: experiments) draw theirs at or above it, so a campaign never re-runs an experiment's own replicate
-EXPERIMENT_SEED_BASE = 2**30
-
+from calibrax.core.sheartest.spec import ShearCellSpec
 
 def simulation_seed(campaign_seed: int, point_id: int, index: int) -> int:
     """The seed of simulation ``index`` of point ``point_id``: distinct, reproducible, and below

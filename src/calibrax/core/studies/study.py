@@ -24,7 +24,9 @@ import numpy as np
 from calibrax.core.running.executor import SimulationTask
 from calibrax.core.data.features import result_features, step_mean
 from calibrax.core.running.scheduler import Finished, Scheduler
-from calibrax.core.sheartest import ShearCellSpec, ShearTestResult, steady_base_load
+from calibrax.core.sheartest.spec import ShearCellSpec
+from calibrax.core.sheartest.result import ShearTestResult
+from calibrax.core.sheartest.physics import steady_base_load
 from calibrax.core.running.store import CampaignStore
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from calibrax.core.studies.campaign import EXPERIMENT_SEED_BASE, point_spec
+from calibrax.core.data.pseudo import EXPERIMENT_SEED_BASE
+from calibrax.core.studies.simulation_setup import point_spec
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.diagnosis.benchmark.cases import (CLASS_MIXED, CLASS_NONE, CLASS_UNLISTED, MAGNITUDES, OTHER_CLASSES,
                                                 ROLLING_FRICTION_TRUTH, CaseLabel, RollingFriction, expected_answer,

@@ -1,0 +1,55 @@
+"""A campaign's points and their simulations as plain records: what the store reads back and the
+search works on (:mod:`calibrax.core.running.store` writes and reads them; the search needs none of
+the store to use them)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from calibrax.core.search.metric import MetricValue
+
+
+@dataclass
+class SimulationRecord:
+    """One simulation of a point (one seed)."""
+
+    index: int
+    seed: int
+    status: str  # "pending" | "done" | "failed"
+    wall_time: float = float("nan")
+    reason: str = ""
+    log_tail: str = ""
+    kind: str = ""
+    provenance: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
+class PointRecord:
+    """One proposed parameter point and what became of it."""
+
+    id: int
+    batch: int
+    unit: np.ndarray
+    natural: np.ndarray
+    names: list[str]
+    acquisition: str
+    sims: list[SimulationRecord]
+    metric: MetricValue | None = None
+    #: the fidelity preset it was simulated at, in a multi-fidelity campaign ("": the campaign's cell)
+    fidelity: str = ""
+
+    @property
+    def status(self) -> str:
+        """"done" (metric known), "failed" (every simulation finished, no metric) or "pending"."""
+        if self.metric is not None:
+            return "done"
+        if self.sims and all(s.status != "pending" for s in self.sims):
+            return "failed"
+        return "pending"
+
+    def params(self) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.names, self.natural)}
