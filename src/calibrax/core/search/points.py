@@ -14,7 +14,7 @@ import numpy as np
 from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import Answer, answer_from_model
 from calibrax.core.search.models import TrainingData, fit_surrogate
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 from calibrax.errors import FailureKind
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
@@ -25,7 +25,7 @@ def physically_failed(point: PointRecord) -> bool:
     """Every simulation of the point finished, none gave a metric, and at least one failure was
     about the parameters (not a lost worker or a cancellation)."""
     infrastructure = (FailureKind.WORKER_LOST, FailureKind.CANCELLED)
-    return point.status == "failed" and any(s.status == "failed" and s.kind not in infrastructure for s in point.sims)
+    return point.status == Status.FAILED and any(s.status == Status.FAILED and s.kind not in infrastructure for s in point.sims)
 
 
 def observations(points: list[PointRecord], penalise_failures: bool = True,

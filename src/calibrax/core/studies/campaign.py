@@ -52,7 +52,7 @@ from calibrax.core.search.summary import CampaignSummary, duration_text, noise_t
 from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer,
                                          fit_distance_model, observations, screen_repeats, settled)
 from calibrax.core.running.store import CampaignStore
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 from calibrax.core.studies.simulation_setup import point_spec, simulation_seed, simulation_workdir
 from calibrax.core.warm_start import WARM_START, take_warm_start
 from calibrax.errors import CalibraxError
@@ -123,11 +123,11 @@ class Campaign:
             points = store.points()
             target = self._target(points)
             self._sims_total = max(target, len(points)) * cfg.seeds_per_point
-            stored = sum(1 for p in points for s in p.sims if s.status != "pending")
+            stored = sum(1 for p in points for s in p.sims if s.status != Status.PENDING)
             self._sims_started = self._sims_finished = stored
             for p in points:
                 for s in p.sims:
-                    if s.status != "pending" and math.isfinite(s.wall_time):
+                    if s.status != Status.PENDING and math.isfinite(s.wall_time):
                         self._count_cpu(p.fidelity, s.wall_time)
             complete = len(points) >= target and stored == len(points) * cfg.seeds_per_point
             if created:
@@ -297,7 +297,7 @@ class Campaign:
         target = target_fidelity(store)
         done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)
                 and p.fidelity == target]
-        failed = sum(1 for p in points if p.status == "failed")
+        failed = sum(1 for p in points if p.status == Status.FAILED)
         best = min(done, key=lambda p: p.metric.value, default=None)
         if best is None:
             return CampaignSummary(store.path, len(points), len(done), failed, None, {}, float("nan"), float("nan"))
@@ -381,14 +381,14 @@ class Campaign:
     def _submit(self, p: PointRecord) -> None:
         """Submit the point's simulations that have no outcome yet."""
         cfg = self.config
-        pending = [s for s in p.sims if s.status == "pending"]
+        pending = [s for s in p.sims if s.status == Status.PENDING]
         if not pending:
             return
         self._outcomes[p.id] = {}
         for s in p.sims:
-            if s.status == "done":
+            if s.status == Status.DONE:
                 self._outcomes[p.id][s.index] = CampaignStore(cfg.store).result(p.id, s.index)
-            elif s.status == "failed":
+            elif s.status == Status.FAILED:
                 self._outcomes[p.id][s.index] = None
         base = self.plan.spec(p)
         for s in pending:
