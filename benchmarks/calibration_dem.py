@@ -82,7 +82,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
     """(simulations, the recommendation on the unit cube) after each batch, from the store: the
     campaign's own answer on its first n points (Sobol: the best observation)."""
     from calibrax import CampaignStore
-    from calibrax.core.search.points import campaign_answer, fidelity_levels
+    from calibrax.core.search.points import campaign_answer
 
     points = sorted(CampaignStore(config.store).points(), key=lambda p: p.id)
     done = [p for p in points if p.metric is not None and np.isfinite(p.metric.value)]
@@ -93,7 +93,7 @@ def checkpoints(config, strategy: str) -> list[tuple[int, np.ndarray]]:
             out.append((n, min(first, key=lambda p: p.metric.value).unit))
             continue
         answer = campaign_answer(first, config.space, config.surrogate, config.seed,
-                                 fidelity_levels(config.fidelities))
+                                 config.plan.levels)
         out.append((n, config.space.to_unit(np.asarray([list(answer.params.values())]))[0]))
     return out
 

@@ -278,16 +278,17 @@ def _print_check(config) -> None:
 def _cmd_status(args: argparse.Namespace) -> int:
     from calibrax.core.studies.campaign import Campaign
     from calibrax.core.running.store import CampaignStore
+    from calibrax.core.search.records import Status
 
     store = CampaignStore(args.store)
     points = store.points()
     summary = Campaign.summary(store)
     if args.json:
-        rows = [{"id": p.id, "batch": p.batch, "source": p.acquisition, "params": p.params(), "status": p.status,
+        rows = [{"id": p.id, "batch": p.batch, "source": p.acquisition, "params": p.params(), "status": str(p.status),
                  "distance": None if p.metric is None else p.metric.value,
                  "uncertainty": None if p.metric is None else p.metric.uncertainty,
                  "features": {} if p.metric is None else p.metric.features,
-                 "failures": [s.reason for s in p.sims if s.status == "failed"]} for p in points]
+                 "failures": [s.reason for s in p.sims if s.status == Status.FAILED]} for p in points]
         print(json.dumps({"points": rows, "best_id": summary.best_id, "answer": summary.answer}, default=float,
                          indent=1))
         return 0

@@ -14,7 +14,8 @@ The core's stack, lowest first (:data:`STACK`); each layer imports only from the
 * ``search``: parameters, metrics, the point records, Kriging models, acquisitions, the answer;
   it takes plain arguments, not a campaign's config, and knows nothing of the store;
 * ``running``: executors, the isolated simulation process, the scheduler, the store;
-* ``fidelities``: a multi-fidelity campaign's presets;
+* ``fidelities``: a multi-fidelity campaign's presets and the fidelity plan (it takes the Sobol
+  design and the records from ``search``);
 * ``resolved``: the resolved config's added fields (the search hash and warm start read them);
 * ``warm_start``: a new store from an earlier campaign's;
 * ``config``: the campaign config, parsed and checked;

@@ -14,7 +14,8 @@ those below it (tests/unit/test_layering.py, ``STACK``). Lowest first:
   acquisitions, metrics, noise thresholds, the answer;
 * :mod:`~calibrax.core.running`: the scheduler, the executors, the isolated simulation process,
   the store;
-* :mod:`~calibrax.core.fidelities`: a multi-fidelity campaign's presets;
+* :mod:`~calibrax.core.fidelities`: a multi-fidelity campaign's presets, and the campaign's
+  fidelity plan (one fidelity or several: which one each point runs at);
 * :mod:`~calibrax.core.resolved`, :mod:`~calibrax.core.warm_start`: the resolved config's added
   fields, and a store started from an earlier one;
 * :mod:`~calibrax.core.config`: the campaign config;

@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from calibrax.core.data.experiment import Experiment, experiment_fingerprint, load_experiment
-from calibrax.core.fidelities import Fidelity, campaign_fidelities, check_multi_fidelity, is_multi_fidelity
+from calibrax.core.fidelities import (Fidelity, FidelityPlan, campaign_fidelities, check_multi_fidelity, fidelity_plan,
+                                      is_multi_fidelity)
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.options import check_options
 from calibrax.core.resolved import without_added_defaults
@@ -101,12 +102,13 @@ class CampaignConfig:
     def target_points(self) -> int:
         """Points the whole campaign simulates: the enqueued ones, the initial design (at every
         fidelity), the iterations."""
-        initial = sum(f.initial for f in self.fidelities) if self.fidelities else self.initial
-        return len(self.enqueue) + initial + self.iterations * self.q
+        return len(self.enqueue) + self.plan.initial_points(self.initial) + self.iterations * self.q
 
-    def fidelity(self, name: str) -> Fidelity:
-        """The fidelity called ``name`` (a point stored with an unknown one is a StoreError's business)."""
-        return next(f for f in self.fidelities if f.name == name)
+    @property
+    def plan(self) -> FidelityPlan:
+        """What the campaign's fidelities decide (:class:`~calibrax.core.fidelities.FidelityPlan`):
+        one fidelity (``spec``) or several."""
+        return fidelity_plan(self.fidelities, self.spec)
 
     def search_hash(self) -> str:
         """Hash of what defines the search (not budget, executor or paths; the experiment by its

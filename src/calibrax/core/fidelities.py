@@ -17,16 +17,29 @@ fidelity's initial points are the first ones of the same Sobol sequence, so that
 The model sees a fidelity as one more input, its *level* s in [0, 1]: s = log(c/c_min) /
 log(c_max/c_min), 0 for the cheapest and 1 for the target (on a log-cost scale, as cell sizes and
 time steps multiply the cost).
+
+A campaign asks its :class:`FidelityPlan` (``CampaignConfig.plan``), not its ``fidelities``, what
+they decide: which fidelity the initial design, the enqueued and the proposed points run at, the
+levels the model sees, the cell a point runs, the progress line's CPU per fidelity, the model's
+name in the log. :class:`SingleFidelity` answers for a campaign at one cell, :class:`MultiFidelity`
+for several.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Protocol
 
+import numpy as np
+
+from calibrax.core.search.design import sobol_points
+from calibrax.core.search.summary import duration_text
 from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.errors import ConfigError
+
+if TYPE_CHECKING:
+    from calibrax.core.search.records import PointRecord
 
 #: CPU-seconds per test on one core (docs/how-to/choose-a-preset.md#what-a-test-costs): ``tiny``
 #: about 70 s, ``quick`` about 250 s, ``paper`` about 700 times the former ``quick``'s 116 s
@@ -156,12 +169,160 @@ def check_multi_fidelity(raw: dict[str, Any], acquisition: str, warm_start: Any)
                           "points carry no fidelity); leave warm_start out")
 
 
-def nearest(fidelities: tuple[Fidelity, ...], level: float) -> Fidelity:
-    """The fidelity whose level is nearest ``level`` (an acquisition's proposal)."""
-    return min(fidelities, key=lambda f: abs(f.level - level))
-
-
 def target_fidelity(store) -> str:
     """The target fidelity's name of a multi-fidelity campaign's store ("" for one fidelity)."""
     fidelities = store.config().get("fidelities")
     return fidelities[-1]["preset"] if fidelities else ""
+
+
+class FidelityPlan(Protocol):
+    """What a campaign asks of its fidelities, answered once for one fidelity
+    (:class:`SingleFidelity`) or several (:class:`MultiFidelity`), so that the campaign does not
+    branch on them. A fidelity's name is what a point records ("" with one fidelity)."""
+
+    #: {fidelity name: level} for the model and the answer (None with one fidelity)
+    levels: dict[str, float] | None
+    #: the model's name in log lines ("Kriging", "multi-fidelity Kriging")
+    model_name: str
+
+    def initial_points(self, initial: int) -> int:
+        """Points of the initial design (``initial``: the config's ``budget.initial``)."""
+
+    def initial_design(self, enqueued: np.ndarray, dim: int, initial: int,
+                       seed: int) -> tuple[np.ndarray, list[str] | None]:
+        """Batch 0's rows (unit cube: the ``enqueued`` ones first, then a scrambled Sobol design)
+        and each row's fidelity (None with one fidelity)."""
+
+    def at_target(self, n: int) -> list[str] | None:
+        """The fidelities of ``n`` points run at the target (enqueued points); None with one."""
+
+    def at_cheapest(self, n: int) -> list[str] | None:
+        """The fidelities of ``n`` points run at the cheapest (a proposal made without a model)."""
+
+    def pending_rows(self, pending: list[PointRecord]) -> np.ndarray | None:
+        """The points in flight as the acquisition's ``X_pending`` (None: none)."""
+
+    def propose(self, acquisition: Any, model: Any, space: Any, observations: Any, q: int,
+                pending: np.ndarray | None, seed: int) -> tuple[np.ndarray, list[str] | None]:
+        """``q`` points proposed by ``acquisition`` on ``model`` (unit cube, (q, d)) and the
+        fidelity each runs at (None with one fidelity)."""
+
+    def is_target(self, point: PointRecord) -> bool:
+        """Whether ``point`` ran at the target fidelity (the answer's)."""
+
+    def spec(self, point: PointRecord) -> ShearCellSpec:
+        """The cell ``point``'s simulations run (before its parameters and seed are set)."""
+
+    def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
+        """What follows "k of N simulations done": ``time_left`` (", about 2 min left") with one
+        fidelity; with several, the CPU-seconds and simulations so far per fidelity (``cpu``:
+        {name: [seconds, simulations]}), as which fidelity the rest runs at is the search's choice."""
+
+
+@dataclass(frozen=True)
+class SingleFidelity:
+    """A campaign at one fidelity: every point runs ``spec``."""
+
+    cell: ShearCellSpec
+    levels: None = None
+    model_name: str = "Kriging"
+
+    def initial_points(self, initial: int) -> int:
+        return initial
+
+    def initial_design(self, enqueued: np.ndarray, dim: int, initial: int,
+                       seed: int) -> tuple[np.ndarray, list[str] | None]:
+        design = sobol_points(dim, initial, seed=seed)
+        return (np.vstack([enqueued, design]) if len(enqueued) else design), None
+
+    def at_target(self, n: int) -> None:
+        return None
+
+    def at_cheapest(self, n: int) -> None:
+        return None
+
+    def pending_rows(self, pending: list[PointRecord]) -> np.ndarray | None:
+        return np.stack([p.unit for p in pending]) if pending else None
+
+    def propose(self, acquisition: Any, model: Any, space: Any, observations: Any, q: int,
+                pending: np.ndarray | None, seed: int) -> tuple[np.ndarray, None]:
+        return acquisition.propose(model, space, observations, q, pending=pending, seed=seed), None
+
+    def is_target(self, point: PointRecord) -> bool:
+        return True
+
+    def spec(self, point: PointRecord) -> ShearCellSpec:
+        return self.cell
+
+    def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
+        return time_left
+
+
+@dataclass(frozen=True)
+class MultiFidelity:
+    """A multi-fidelity campaign: ``fidelities`` cheapest first, the target last."""
+
+    fidelities: tuple[Fidelity, ...]
+    model_name: str = "multi-fidelity Kriging"
+
+    @property
+    def levels(self) -> dict[str, float]:
+        return {f.name: f.level for f in self.fidelities}
+
+    @property
+    def target(self) -> Fidelity:
+        return self.fidelities[-1]
+
+    def initial_points(self, initial: int) -> int:
+        return sum(f.initial for f in self.fidelities)
+
+    def initial_design(self, enqueued: np.ndarray, dim: int, initial: int,
+                       seed: int) -> tuple[np.ndarray, list[str]]:
+        """Each fidelity runs the first ``initial`` points of one Sobol sequence (nested levels:
+        every target point has its cheap twins); the enqueued points run at the target."""
+        design = sobol_points(dim, max(f.initial for f in self.fidelities), seed=seed)
+        rows = [enqueued] + [design[:f.initial] for f in self.fidelities]
+        names = self.at_target(len(enqueued)) + [f.name for f in self.fidelities for _ in range(f.initial)]
+        return np.vstack(rows), names
+
+    def at_target(self, n: int) -> list[str]:
+        return [self.target.name] * n
+
+    def at_cheapest(self, n: int) -> list[str]:
+        return [self.fidelities[0].name] * n
+
+    def pending_rows(self, pending: list[PointRecord]) -> np.ndarray | None:
+        """The pending points with their fidelity's level as one more column."""
+        if not pending:
+            return None
+        levels = self.levels
+        return np.hstack([np.stack([p.unit for p in pending]), [[levels[p.fidelity]] for p in pending]])
+
+    def propose(self, acquisition: Any, model: Any, space: Any, observations: Any, q: int,
+                pending: np.ndarray | None, seed: int) -> tuple[np.ndarray, list[str]]:
+        """The acquisition proposes (x, level) rows; each level becomes the nearest fidelity."""
+        rows = acquisition.propose(model, space, observations, q, pending=pending, seed=seed,
+                                   fidelities=[(f.level, f.cost) for f in self.fidelities])
+        return rows[:, :-1], [self.nearest(lv).name for lv in rows[:, -1]]
+
+    def nearest(self, level: float) -> Fidelity:
+        """The fidelity whose level is nearest ``level`` (an acquisition's proposal)."""
+        return min(self.fidelities, key=lambda f: abs(f.level - level))
+
+    def is_target(self, point: PointRecord) -> bool:
+        return point.fidelity == self.target.name
+
+    def spec(self, point: PointRecord) -> ShearCellSpec:
+        """The point's fidelity's cell (the target's for a point stored without one)."""
+        if not point.fidelity:
+            return self.target.spec
+        return next(f.spec for f in self.fidelities if f.name == point.fidelity)
+
+    def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
+        spent = [(f.name, *cpu[f.name]) for f in self.fidelities if f.name in cpu]
+        return "; CPU " + ", ".join(f"{name} {duration_text(t)} ({n:.0f} sims)" for name, t, n in spent)
+
+
+def fidelity_plan(fidelities: tuple[Fidelity, ...], spec: ShearCellSpec) -> FidelityPlan:
+    """The plan of a campaign with ``fidelities`` (empty: one fidelity, every point at ``spec``)."""
+    return MultiFidelity(fidelities) if fidelities else SingleFidelity(spec)

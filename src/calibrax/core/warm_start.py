@@ -14,6 +14,7 @@ import numpy as np
 
 from calibrax.core.resolved import without_added_defaults
 from calibrax.core.search.parameters import ParameterSpace
+from calibrax.core.search.records import Status
 from calibrax.errors import CalibraxError, ConfigError
 
 #: the source (``acquisition``) of the points a campaign was warm-started with
@@ -78,7 +79,7 @@ def take_warm_start(store, space: ParameterSpace, experiment, metric, path: Path
     earlier = CampaignStore(path)
     taken, outside = 0, 0
     for p in earlier.points():
-        done = [s for s in p.sims if s.status == "done"]
+        done = [s for s in p.sims if s.status == Status.DONE]
         if not done:
             continue
         params = p.params()

@@ -189,13 +189,14 @@ def figures(d: Diagnosis, calibrated: Calibrated, out: Path) -> list[str]:
 
 def _curves(d: Diagnosis, calibrated: Calibrated, out: Path, plt, save) -> list[str]:
     from calibrax.core.running.store import CampaignStore
+    from calibrax.core.search.records import Status
 
     def results(path: Path) -> list:
         if not path.is_file():
             return []
         store = CampaignStore(path)
         p = store.points()[0]
-        return [store.result(p.id, s.index) for s in p.sims if s.status == "done"]
+        return [store.result(p.id, s.index) for s in p.sims if s.status == Status.DONE]
 
     before = results(out / d.stores.get("design", "design.h5"))
     after = results(out / d.stores["confirm"]) if "confirm" in d.stores else []

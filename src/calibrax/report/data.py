@@ -16,7 +16,7 @@ from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.parameters import Parameter, ParameterSpace
 from calibrax.core.sheartest import ShearTestResult
 from calibrax.core.running.store import CampaignStore
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError, StoreError
 
@@ -78,7 +78,7 @@ class CampaignData:
     def failures(self) -> list[tuple[PointView, int, str, str, str]]:
         """(point, sim index, kind, reason, log tail) of every failed simulation."""
         return [(p, s.index, s.kind, s.reason, s.log_tail) for p in self.points for s in p.record.sims
-                if s.status == "failed"]
+                if s.status == Status.FAILED]
 
 
 def load_campaign(store_path: str | Path) -> CampaignData:
@@ -91,7 +91,7 @@ def load_campaign(store_path: str | Path) -> CampaignData:
                                  for name, b in config["parameters"].items()))
     views = []
     for record in store.points():
-        results = [store.result(record.id, s.index) for s in record.sims if s.status == "done"]
+        results = [store.result(record.id, s.index) for s in record.sims if s.status == Status.DONE]
         view = PointView(record, results)
         if results:
             try:

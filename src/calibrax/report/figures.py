@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from calibrax.core.search.parameters import DISPLAY as UNITS  # noqa: E402  (symbol, scale, unit per parameter)
+from calibrax.core.search.records import Status  # noqa: E402
 from calibrax.core.search.surrogate import Kriging  # noqa: E402
 from calibrax.report.data import CampaignData  # noqa: E402
 
@@ -318,7 +319,7 @@ def _identifiability(data: CampaignData, answer) -> str:
                      f"{data.space.dim} parameters): run more iterations before concluding that.")
         return text
     if answer.region_share >= 0.5:
-        n_sims = sum(1 for p in data.done for s in getattr(p.record, "sims", []) if s.status == "done") or n_done
+        n_sims = sum(1 for p in data.done for s in getattr(p.record, "sims", []) if s.status == Status.DONE) or n_done
         return text + (f" The data do not constrain the parameters: with {n_done} points ({n_sims} simulations)"
                        f"{_cell_words(data)} the experiment's replicate "
                        "spread and one simulation's seed noise leave most of the box as likely as the truth. More "
@@ -349,7 +350,7 @@ def convergence(data: CampaignData, folder: Path) -> list[str]:
     ax1.set_ylabel("distance to experiment")
     ax1.grid(alpha=0.3, which="both")
     ax1.legend(fontsize=8)
-    colors = ["tab:red" if p.record.status == "failed" else "tab:blue" for p in order]
+    colors = ["tab:red" if p.record.status == Status.FAILED else "tab:blue" for p in order]
     ax2.bar(n, [p.wall_time for p in order], color=colors)
     ax2.set_xlabel("point (in the order simulated)")
     ax2.set_ylabel("engine wall time, all seeds [s]")

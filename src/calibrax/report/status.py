@@ -17,7 +17,7 @@ from calibrax.core.running.executor import ATTEMPTS_LOG
 from calibrax.core.search.metric import SIMULATED_FEATURES, simulated_features
 from calibrax.core.search.parameters import UNITS
 from calibrax.core.running.store import CampaignStore
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 
 #: display name and unit of the metric's features named ``<stem>_exp`` (others: the stem, no unit)
 FEATURE_LABELS = {"cohesion": ("C", " Pa"), "aif": ("AIF", "°"), "bulk_density": ("bulk density", " kg/m³")}
@@ -33,8 +33,8 @@ def simulation_state(workdir: str | None, point: PointRecord, index: int, live: 
     """"done", "failed", "running", "queued" (a live campaign has not started it yet) or
     "interrupted" (the campaign stopped before it finished; a new run resumes it)."""
     sim = point.sims[index]
-    if sim.status != "pending":
-        return sim.status
+    if sim.status != Status.PENDING:
+        return str(sim.status)
     if not live:
         return "interrupted"
     if not workdir:  # a crosscheck's or converge's store: its work folders are named otherwise
@@ -47,10 +47,10 @@ def simulation_state(workdir: str | None, point: PointRecord, index: int, live: 
 def point_state(workdir: str | None, point: PointRecord, live: bool) -> str:
     """The point's state: done or failed ("no metric": simulated, but no distance, as in a
     crosscheck's store), else the most advanced of its simulations' states."""
-    if point.status == "failed" and all(s.status == "done" for s in point.sims):
+    if point.status == Status.FAILED and all(s.status == Status.DONE for s in point.sims):
         return "no metric"
-    if point.status != "pending":
-        return point.status
+    if point.status != Status.PENDING:
+        return str(point.status)
     states = {simulation_state(workdir, point, s.index, live) for s in point.sims}
     return next((s for s in ("running", "in flight", "queued", "interrupted") if s in states), "pending")
 
@@ -92,7 +92,7 @@ def status_text(store: CampaignStore) -> str:
                      + f" {dist:>15}"
                      f" {_fmt(sum(walls), '.1f') if walls else '':>9}{mark}")
         for s in p.sims:
-            if s.status == "failed":
+            if s.status == Status.FAILED:
                 lines.append(f"      sim {s.index} failed [{s.kind}]: {s.reason}")
     counts = {k: sum(1 for v in states.values() if v == k)
               for k in ("done", "no metric", "failed", "running", "in flight", "queued", "interrupted")}

@@ -21,6 +21,7 @@ import numpy as np
 from calibrax.core.studies.campaign import Campaign
 from calibrax.core.search.parameters import UNITS
 from calibrax.core.running.store import CampaignStore
+from calibrax.core.search.records import Status
 from calibrax.errors import StoreError
 from calibrax.report.status import point_state
 
@@ -64,14 +65,14 @@ def trial_rows(store: CampaignStore | str | Path) -> list[dict[str, Any]]:
             "wall_s": sum(walls) if walls else None,
         })
         row.update({f"peak_tau_{s / 1e3:g}kPa_Pa": peaks.get(s) for s in sigmas})
-        row["failures"] = ";".join(f"sim {s.index} [{s.kind}]: {s.reason}" for s in p.sims if s.status == "failed")
+        row["failures"] = ";".join(f"sim {s.index} [{s.kind}]: {s.reason}" for s in p.sims if s.status == Status.FAILED)
         rows.append(row)
     return rows
 
 
 def _peaks(store: CampaignStore, point) -> dict[float, float] | None:
     """Mean peak τ (Pa) per target σ (Pa) over the point's finished simulations."""
-    results = [store.result(point.id, s.index) for s in point.sims if s.status == "done"]
+    results = [store.result(point.id, s.index) for s in point.sims if s.status == Status.DONE]
     if not results:
         return None
     out = {}

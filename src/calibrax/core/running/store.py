@@ -32,7 +32,7 @@ import numpy as np
 
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.metric import MetricValue, terms_as_features
-from calibrax.core.search.records import PointRecord, SimulationRecord
+from calibrax.core.search.records import PointRecord, SimulationRecord, Status
 
 #: ``mismatch(stored config, stored experiment)``: why a store cannot be resumed, or None if it can
 Mismatch = Callable[[dict[str, Any], "Experiment | None"], "str | None"]
@@ -292,7 +292,7 @@ class CampaignStore:
             s = g.create_group(name)
             s.attrs.update({"seed": seed, "wall_time": wall_time, "finished_at": time.time()})
             if result is None:
-                s.attrs.update({"status": "failed", "reason": reason, "log_tail": log_tail[-8000:], "kind": str(kind)})
+                s.attrs.update({"status": str(Status.FAILED), "reason": reason, "log_tail": log_tail[-8000:], "kind": str(kind)})
             else:
                 write_result_group(s, result)
             if metric is not None:
@@ -317,10 +317,10 @@ class CampaignStore:
                 for i, seed in enumerate(seeds):
                     s = g.get(f"sim{i}")
                     if s is None:
-                        sims.append(SimulationRecord(i, seed, "pending"))
+                        sims.append(SimulationRecord(i, seed, Status.PENDING))
                         continue
                     sims.append(SimulationRecord(
-                        i, seed, str(s.attrs["status"]), float(s.attrs.get("wall_time", np.nan)),
+                        i, seed, Status(str(s.attrs["status"])), float(s.attrs.get("wall_time", np.nan)),
                         str(s.attrs.get("reason", "")), str(s.attrs.get("log_tail", "")), str(s.attrs.get("kind", "")),
                         json.loads(s.attrs.get("provenance", "{}")), json.loads(s.attrs.get("warnings", "[]"))))
                 metric = None
@@ -358,7 +358,7 @@ class CampaignStore:
         """The stored result of one simulation."""
         with self._read() as f:
             g = f["points"].get(f"p{point_id:06d}/sim{index}")
-            if g is None or g.attrs["status"] != "done":
+            if g is None or g.attrs["status"] != Status.DONE:
                 raise StoreError(f"point {point_id} simulation {index} has no result in {self.path}")
             return read_result_group(g)
 
@@ -366,7 +366,7 @@ class CampaignStore:
         """(point id, simulation index, result) of every successful simulation."""
         for p in self.points():
             for s in p.sims:
-                if s.status == "done":
+                if s.status == Status.DONE:
                     yield p.id, s.index, self.result(p.id, s.index)
 
 
@@ -411,7 +411,7 @@ def read_experiment_group(group: h5py.Group) -> Experiment:
 
 def write_result_group(group: h5py.Group, result: ShearTestResult) -> None:
     prov = result.provenance
-    group.attrs.update({"status": "done", "provenance": json.dumps({
+    group.attrs.update({"status": str(Status.DONE), "provenance": json.dumps({
         "backend": prov.backend, "engine_version": prov.engine_version, "spec_hash": prov.spec_hash,
         "seed": prov.seed, "wall_time": prov.wall_time, "particle_count": prov.particle_count,
         "threads": prov.threads, "extra": prov.extra}, default=str), "warnings": json.dumps(list(result.warnings))})

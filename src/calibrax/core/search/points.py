@@ -14,7 +14,7 @@ import numpy as np
 from calibrax.core.search.acquisition import Observations
 from calibrax.core.search.answer import Answer, answer_from_model
 from calibrax.core.search.models import TrainingData, fit_surrogate
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 from calibrax.errors import FailureKind
 
 #: unit-cube distance (max norm) under which a proposal repeats a point
@@ -25,7 +25,7 @@ def physically_failed(point: PointRecord) -> bool:
     """Every simulation of the point finished, none gave a metric, and at least one failure was
     about the parameters (not a lost worker or a cancellation)."""
     infrastructure = (FailureKind.WORKER_LOST, FailureKind.CANCELLED)
-    return point.status == "failed" and any(s.status == "failed" and s.kind not in infrastructure for s in point.sims)
+    return point.status == Status.FAILED and any(s.status == Status.FAILED and s.kind not in infrastructure for s in point.sims)
 
 
 def observations(points: list[PointRecord], penalise_failures: bool = True,
@@ -130,18 +130,12 @@ def fit_distance_model(points: list[PointRecord], surrogate: dict[str, str], see
     return fit_surrogate(TrainingData(obs, finished, failed, levels, threshold), surrogate, seed)
 
 
-def fidelity_levels(fidelities) -> dict[str, float] | None:
-    """{fidelity name: level} of a multi-fidelity campaign's ``fidelities`` (its config's
-    :class:`~calibrax.core.fidelities.Fidelity` list), None for one fidelity (an empty list)."""
-    return {f.name: f.level for f in fidelities} if fidelities else None
-
-
 def campaign_answer(points: list[PointRecord], space, surrogate: dict[str, str], seed: int,
                     levels: dict[str, float] | None = None, model=None) -> Answer | None:
     """The campaign's :class:`Answer` from ``points`` in the parameter ``space``: ``model``
     (default: fitted on the points with the campaign's ``surrogate`` options, ``seed`` and fidelity
-    ``levels``, :func:`fidelity_levels`) read against the metric's noise threshold; None with fewer
-    than 3 finished points."""
+    ``levels``, the campaign's :attr:`~calibrax.core.fidelities.FidelityPlan.levels`) read against
+    the metric's noise threshold; None with fewer than 3 finished points."""
     finished = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)]
     if len(finished) < 3:
         return None
@@ -151,5 +145,4 @@ def campaign_answer(points: list[PointRecord], space, surrogate: dict[str, str],
 
 
 __all__ = ["DUPLICATE_TOL", "SETTLED_MOVE", "SETTLED_SHARE", "physically_failed", "observations", "settled",
-           "screen_repeats", "noise_threshold", "fit_distance_model", "fidelity_levels",
-           "campaign_answer"]
+           "screen_repeats", "noise_threshold", "fit_distance_model", "campaign_answer"]

@@ -5,11 +5,21 @@ the store to use them)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
 from calibrax.core.search.metric import MetricValue
+
+
+class Status(StrEnum):
+    """A simulation's or a point's state. A str: it compares equal to the plain text an older
+    store holds, and the store writes ``str(status)`` (h5py stores no enum)."""
+
+    PENDING = "pending"  #: not finished (not run yet, in flight, or interrupted)
+    DONE = "done"  #: a simulation: it returned a result; a point: its metric is known
+    FAILED = "failed"  #: a simulation: it failed; a point: every simulation finished, no metric
 
 
 @dataclass
@@ -18,7 +28,7 @@ class SimulationRecord:
 
     index: int
     seed: int
-    status: str  # "pending" | "done" | "failed"
+    status: Status
     wall_time: float = float("nan")
     reason: str = ""
     log_tail: str = ""
@@ -43,13 +53,13 @@ class PointRecord:
     fidelity: str = ""
 
     @property
-    def status(self) -> str:
-        """"done" (metric known), "failed" (every simulation finished, no metric) or "pending"."""
+    def status(self) -> Status:
+        """Done (metric known), failed (every simulation finished, no metric) or pending."""
         if self.metric is not None:
-            return "done"
-        if self.sims and all(s.status != "pending" for s in self.sims):
-            return "failed"
-        return "pending"
+            return Status.DONE
+        if self.sims and all(s.status != Status.PENDING for s in self.sims):
+            return Status.FAILED
+        return Status.PENDING
 
     def params(self) -> dict[str, float]:
         return {n: float(v) for n, v in zip(self.names, self.natural)}

@@ -40,4 +40,13 @@ def noise_text(value: float, threshold: float, rate: float) -> str:
     return f"{where} the noise (threshold d = {threshold:.3g}, which the truth meets {rate:.0%} of the time)"
 
 
-__all__ = ["CampaignSummary", "noise_text"]
+def duration_text(seconds: float) -> str:
+    """45 s, 12 min, 2.3 h (progress lines)."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+__all__ = ["CampaignSummary", "noise_text", "duration_text"]

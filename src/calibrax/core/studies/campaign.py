@@ -39,7 +39,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from calibrax.core.fidelities import nearest, target_fidelity
+from calibrax.core.fidelities import target_fidelity
 from calibrax.core.search.answer import Answer
 from calibrax.core.config import CampaignConfig
 from calibrax.core.running.executor import SimulationTask
@@ -48,11 +48,11 @@ from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.core.search.design import sobol_points
 from calibrax.core.registry import get_manager
 from calibrax.core.running.scheduler import Finished, Scheduler
-from calibrax.core.search.summary import CampaignSummary, noise_text
-from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer, fidelity_levels,
-                                 fit_distance_model, observations, screen_repeats, settled)
+from calibrax.core.search.summary import CampaignSummary, duration_text, noise_text
+from calibrax.core.search.points import (DUPLICATE_TOL, SETTLED_MOVE, SETTLED_SHARE, campaign_answer,
+                                         fit_distance_model, observations, screen_repeats, settled)
 from calibrax.core.running.store import CampaignStore
-from calibrax.core.search.records import PointRecord
+from calibrax.core.search.records import PointRecord, Status
 from calibrax.core.studies.simulation_setup import point_spec, simulation_seed, simulation_workdir
 from calibrax.core.warm_start import WARM_START, take_warm_start
 from calibrax.errors import CalibraxError
@@ -79,21 +79,14 @@ def _fmt_params(params: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g}" for k, v in params.items())
 
 
-def _fmt_duration(seconds: float) -> str:
-    """45 s, 12 min, 2.3 h."""
-    if seconds < 90:
-        return f"{seconds:.0f} s"
-    if seconds < 5400:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
-
-
 class Campaign:
     """One calibration campaign bound to its config; :meth:`run` runs or resumes it."""
 
     def __init__(self, config: CampaignConfig, listener: Callable[[dict[str, Any]], None] | None = None) -> None:
         """``listener`` receives every progress event as a JSON-ready dict (``event``, ``message``, fields)."""
         self.config = config
+        #: what the fidelities decide: which one each point runs at, the model's levels, progress
+        self.plan = config.plan
         self.listener = listener
         manager = get_manager()
         self.metric = manager.create("metric", config.metric, **config.metric_options)
@@ -130,11 +123,11 @@ class Campaign:
             points = store.points()
             target = self._target(points)
             self._sims_total = max(target, len(points)) * cfg.seeds_per_point
-            stored = sum(1 for p in points for s in p.sims if s.status != "pending")
+            stored = sum(1 for p in points for s in p.sims if s.status != Status.PENDING)
             self._sims_started = self._sims_finished = stored
             for p in points:
                 for s in p.sims:
-                    if s.status != "pending" and math.isfinite(s.wall_time):
+                    if s.status != Status.PENDING and math.isfinite(s.wall_time):
                         self._count_cpu(p.fidelity, s.wall_time)
             complete = len(points) >= target and stored == len(points) * cfg.seeds_per_point
             if created:
@@ -181,8 +174,7 @@ class Campaign:
                 batch = max(p.batch for p in points) + 1
                 enq = self._unqueued(points)
                 if len(enq) and (cfg.batching == "async" or not running):
-                    self._add_batch(store, batch, enq, "enqueued", None,
-                                    [cfg.fidelities[-1].name] * len(enq) if cfg.fidelities else None)
+                    self._add_batch(store, batch, enq, "enqueued", None, self.plan.at_target(len(enq)))
                     continue
                 if cfg.batching == "sync" and not running:
                     self._propose_and_submit(store, points, batch, min(cfg.q, target - len(points)))
@@ -208,14 +200,8 @@ class Campaign:
         cfg = self.config
         enq = self._unqueued(store.points())
         source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
-        if not cfg.fidelities:
-            design = sobol_points(cfg.space.dim, cfg.initial, seed=cfg.seed)
-            self._add_batch(store, 0, np.vstack([enq, design]) if len(enq) else design, source, None)
-            return
-        design = sobol_points(cfg.space.dim, max(f.initial for f in cfg.fidelities), seed=cfg.seed)
-        rows = [enq] + [design[:f.initial] for f in cfg.fidelities]
-        names = [cfg.fidelities[-1].name] * len(enq) + [f.name for f in cfg.fidelities for _ in range(f.initial)]
-        self._add_batch(store, 0, np.vstack(rows), source, None, names)
+        rows, names = self.plan.initial_design(enq, cfg.space.dim, cfg.initial, cfg.seed)
+        self._add_batch(store, 0, rows, source, None, names)
 
     def _target(self, points: list[PointRecord]) -> int:
         """Points the campaign simulates: the config's, plus those it was warm-started with."""
@@ -242,7 +228,7 @@ class Campaign:
         on every point in the store); nothing with fewer than 3 finished points."""
         points = store.points() if points is None else points
         cfg = self.config
-        answer = campaign_answer(points, cfg.space, cfg.surrogate, cfg.seed, fidelity_levels(cfg.fidelities), model)
+        answer = campaign_answer(points, cfg.space, cfg.surrogate, cfg.seed, self.plan.levels, model)
         if answer is None:
             return
         n = answer.n_points
@@ -285,16 +271,18 @@ class Campaign:
 
     def _progress_text(self) -> str:
         """"3 of 6 simulations done, about 2 min left" (the time left: median engine time of this
-        run's finished simulations × those left ÷ workers)."""
+        run's finished simulations × those left ÷ workers), or the CPU spent per fidelity
+        (:meth:`~calibrax.core.fidelities.FidelityPlan.progress`)."""
         text = f"{self._sims_finished} of {self._sims_total} simulations done"
+        return text + self.plan.progress(self._cpu, self._time_left())
+
+    def _time_left(self) -> str:
+        """", about 2 min left" ("" before a simulation of this run has finished, or after the last)."""
         left = self._sims_total - self._sims_finished
-        if self.config.fidelities:  # which fidelity the rest runs at is the search's choice: no time left
-            spent = [(name, *self._cpu[name]) for name in (f.name for f in self.config.fidelities) if name in self._cpu]
-            return text + "; CPU " + ", ".join(f"{name} {_fmt_duration(t)} ({n:.0f} sims)" for name, t, n in spent)
         if left > 0 and self._engine_walls:
             eta = float(np.median(self._engine_walls)) * math.ceil(left / self._capacity)
-            text += f", about {_fmt_duration(eta)} left"
-        return text
+            return f", about {duration_text(eta)} left"
+        return ""
 
     def _count_cpu(self, fidelity: str, seconds: float) -> None:
         spent = self._cpu.setdefault(fidelity, [0.0, 0.0])
@@ -309,7 +297,7 @@ class Campaign:
         target = target_fidelity(store)
         done = [p for p in points if p.metric is not None and math.isfinite(p.metric.value)
                 and p.fidelity == target]
-        failed = sum(1 for p in points if p.status == "failed")
+        failed = sum(1 for p in points if p.status == Status.FAILED)
         best = min(done, key=lambda p: p.metric.value, default=None)
         if best is None:
             return CampaignSummary(store.path, len(points), len(done), failed, None, {}, float("nan"), float("nan"))
@@ -331,15 +319,13 @@ class Campaign:
                  pending: list[PointRecord]) -> tuple[np.ndarray, str, dict | None, list[str] | None]:
         """``q`` points (unit cube, (q, d)), what proposed them, the model's hyperparameters and,
         in a multi-fidelity campaign, the fidelity each runs at (else None)."""
-        cfg = self.config
-        levels = fidelity_levels(cfg.fidelities)
+        cfg, plan = self.config, self.plan
+        levels = plan.levels
         obs = observations(points, levels=levels)
         seed = cfg.seed * 7919 + batch
-        x_pending = np.stack([p.unit for p in pending]) if pending else None
-        if x_pending is not None and levels is not None:
-            x_pending = np.hstack([x_pending, [[levels[p.fidelity]] for p in pending]])
+        x_pending = plan.pending_rows(pending)
         self._model = None
-        cheapest = [cfg.fidelities[0].name] * q if cfg.fidelities else None
+        cheapest = plan.at_cheapest(q)
         if not self.acquisition.needs_model:
             unit = self.acquisition.propose(None, cfg.space, obs, q, pending=x_pending, seed=seed)
             return unit, cfg.acquisition, None, cheapest
@@ -350,18 +336,12 @@ class Campaign:
             return sobol_points(cfg.space.dim, q, seed=cfg.seed, skip=len(points)), "sobol(fallback)", None, cheapest
         t0 = time.monotonic()
         model = self._model = fit_distance_model(points, cfg.surrogate, seed, obs, levels)
-        fidelities = None
-        if cfg.fidelities:
-            rows = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed,
-                                            fidelities=[(f.level, f.cost) for f in cfg.fidelities])
-            unit, fidelities = rows[:, :-1], [nearest(cfg.fidelities, lv).name for lv in rows[:, -1]]
-        else:
-            unit = self.acquisition.propose(model, cfg.space, obs, q, pending=x_pending, seed=seed)
+        unit, fidelities = plan.propose(self.acquisition, model, cfg.space, obs, q, x_pending, seed)
         hyper = model.hyperparameters()
         n_pen = len(obs.y) - finished
         hyper.update({"penalised_failures": n_pen, "pending": 0 if x_pending is None else len(x_pending)})
         kind = ("composite Kriging (one GP per distance term)" if hyper.get("kernel", "").startswith("composite")
-                else "multi-fidelity Kriging" if cfg.fidelities else "Kriging")
+                else plan.model_name)
         self._emit("model", f"batch {batch}: {kind} on {len(obs.y)} points ({n_pen} failed, penalised; length scales "
                    f"{', '.join(f'{v:.3g}' for v in hyper['lengthscales'])}, noise {hyper['noise'] or 0.0:.3g}) → "
                    f"{cfg.acquisition} proposes {q} point(s)"
@@ -401,16 +381,16 @@ class Campaign:
     def _submit(self, p: PointRecord) -> None:
         """Submit the point's simulations that have no outcome yet."""
         cfg = self.config
-        pending = [s for s in p.sims if s.status == "pending"]
+        pending = [s for s in p.sims if s.status == Status.PENDING]
         if not pending:
             return
         self._outcomes[p.id] = {}
         for s in p.sims:
-            if s.status == "done":
+            if s.status == Status.DONE:
                 self._outcomes[p.id][s.index] = CampaignStore(cfg.store).result(p.id, s.index)
-            elif s.status == "failed":
+            elif s.status == Status.FAILED:
                 self._outcomes[p.id][s.index] = None
-        base = cfg.fidelity(p.fidelity).spec if p.fidelity else cfg.spec
+        base = self.plan.spec(p)
         for s in pending:
             task = SimulationTask(p.id, cfg.simulator, point_spec(base, p.params(), s.seed),
                                   simulation_workdir(cfg.workdir, p.id, s.index))
@@ -470,7 +450,7 @@ class Campaign:
 
     def _is_target(self, point: PointRecord) -> bool:
         """Whether the point ran at the campaign's target fidelity (always, with one fidelity)."""
-        return not self.config.fidelities or point.fidelity == self.config.fidelities[-1].name
+        return self.plan.is_target(point)
 
     def _emit(self, event: str, message: str, level: int = logging.INFO, **data: Any) -> None:
         log.log(level, "%s", message)

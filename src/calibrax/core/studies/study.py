@@ -28,6 +28,7 @@ from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.core.sheartest.result import ShearTestResult
 from calibrax.core.sheartest.physics import steady_base_load
 from calibrax.core.running.store import CampaignStore
+from calibrax.core.search.records import Status
 from calibrax.core.sheartest.yieldlocus import YieldLocus
 from calibrax.errors import CalibraxError
 
@@ -210,7 +211,7 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
         scheduler = Scheduler(executor, on_start)
         for i, (c, p) in enumerate(zip(cases, records)):
             for s in p.sims:
-                if s.status == "pending":
+                if s.status == Status.PENDING:
                     spec = c.spec.replace(numerics={"seed": s.seed})
                     task = SimulationTask(p.id, c.backend, spec, workdir / f"{kind}-{p.id:04d}-s{s.index}")
                     scheduler.submit(task, (i, p.id, s.index))
@@ -232,6 +233,6 @@ def run_study(cases: list[StudyCase], store_path: Path, executor, workdir: Path,
             scheduler.shutdown()
         outcomes = []
         for c, p in zip(cases, store.points()):
-            results = [store.result(p.id, s.index) if s.status == "done" else None for s in p.sims]
-            outcomes.append(CaseOutcome(c, results, [s.reason for s in p.sims if s.status == "failed"]))
+            results = [store.result(p.id, s.index) if s.status == Status.DONE else None for s in p.sims]
+            outcomes.append(CaseOutcome(c, results, [s.reason for s in p.sims if s.status == Status.FAILED]))
         return outcomes
