@@ -18,8 +18,29 @@ from typing import Any, Mapping
 from calibrax.errors import ConfigError
 
 
+class Interval:
+    """An allowed range ``low``–``high`` whose ends ``low_open``/``high_open`` may exclude, shared by
+    an option's declaration and a spec field's (:class:`~calibrax.core.sheartest.fields.FieldInfo`)."""
+
+    low: float
+    high: float
+    low_open: bool
+    high_open: bool
+
+    def interval(self) -> str:
+        """The allowed range in words (``≥ 1``, ``> 0``, ``in [0, 0.5)``; "" when unbounded)."""
+        if math.isinf(self.high):
+            return f"{'>' if self.low_open else '≥'} {self.low:g}" if not math.isinf(self.low) else ""
+        return f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` lies in the allowed range."""
+        return ((value > self.low) if self.low_open else (value >= self.low)) and \
+            ((value < self.high) if self.high_open else (value <= self.high))
+
+
 @dataclass(frozen=True)
-class Option:
+class Option(Interval):
     """One option of a plugin.
 
     Attributes:
@@ -38,16 +59,6 @@ class Option:
     choices: tuple[str, ...] | None = None
     nonempty: bool = False
 
-    def interval(self) -> str:
-        """The allowed range in words (``≥ 1``, ``> 0``, ``in (0, 1]``)."""
-        if math.isinf(self.high):
-            return f"{'>' if self.low_open else '≥'} {self.low:g}" if not math.isinf(self.low) else ""
-        return f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
-
-    def _in_range(self, v: float) -> bool:
-        return ((v > self.low) if self.low_open else (v >= self.low)) and \
-            ((v < self.high) if self.high_open else (v <= self.high))
-
     def _number(self, key: str, value: Any) -> float:
         if isinstance(value, str):  # PyYAML reads 5.0e9 (no sign in the exponent) as text
             try:
@@ -57,7 +68,7 @@ class Option:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ConfigError(key, f"must be a finite number{' ' + self.interval() if self.interval() else ''}, "
                               f"got {value!r}")
-        if not self._in_range(value):
+        if not self.contains(value):
             raise ConfigError(key, f"must be {self.interval()}, got {value!r}")
         return float(value)
 
@@ -65,7 +76,7 @@ class Option:
         """``value`` checked (and a number in text read as one); raises :class:`ConfigError`
         naming ``key`` and what is allowed."""
         if self.type is int:
-            if isinstance(value, bool) or not isinstance(value, int) or not self._in_range(value):
+            if isinstance(value, bool) or not isinstance(value, int) or not self.contains(value):
                 raise ConfigError(key, f"must be an integer {self.interval() or ''}".rstrip() + f", got {value!r}")
             return value
         if self.type is float:

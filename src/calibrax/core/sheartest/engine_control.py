@@ -62,7 +62,7 @@ class EngineControl:
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v)) and np.isfinite(e.head_height)):
             self.log(f"t={self.time:.5f} s {phase}: NaN in the state")
             raise SimulationFailed(f"NaN in the particle state during {phase}", self.log.tail(), kind="nan")
-        vmax = float(np.sqrt(np.max(np.sum(v**2, axis=1))))
+        vmax = self.max_speed()
         rho = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2)
         out = int(np.sum((rho > self.rc + rad) | (x[:, 2] < -rad) | (x[:, 2] > self.z_ceiling)))
         if out:

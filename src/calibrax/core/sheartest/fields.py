@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterator
 
+from calibrax.core.options import Interval
 from calibrax.errors import SpecError
 
 #: the key of a dataclass field's metadata that holds its :class:`FieldInfo`
@@ -27,7 +28,7 @@ CALIBRATABLE_GROUPS = ("material", "geometry", "size_distribution")
 
 
 @dataclass(frozen=True)
-class FieldInfo:
+class FieldInfo(Interval):
     """One declared field.
 
     Attributes:
@@ -62,19 +63,6 @@ class FieldInfo:
     def numeric(self) -> bool:
         """Whether the field holds one number (its range is checked)."""
         return self.unit != ""
-
-    def interval(self) -> str:
-        """The allowed range in words: ``> 0``, ``≥ 0``, ``in [0, 0.5)``."""
-        if math.isinf(self.high):
-            return f"{'>' if self.low_open else '≥'} {self.low:g}"
-        return (f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}"
-                f"{')' if self.high_open else ']'}")
-
-    def contains(self, value: float) -> bool:
-        """Whether ``value`` lies in the allowed range."""
-        above = value > self.low if self.low_open else value >= self.low
-        below = value < self.high if self.high_open else value <= self.high
-        return above and below
 
     def check(self, key: str, value: Any) -> None:
         """Raise :class:`SpecError` naming ``key`` and what is allowed unless ``value`` is a valid
