@@ -33,9 +33,9 @@ from collections.abc import Callable
 import numpy as np
 
 from calibrax.core.sheartest import ShearCellSpec
-from calibrax_numba_dem.engine import GATHER_BLOCKS, DEMSystem, gather_kick_drift, numba_threads, pair_forces, rebuild
+from calibrax_numba_dem.engine import GATHER_BLOCKS, DEMSystem, gather_kick_drift, numba_threads, pair_forces
 from calibrax_numba_dem.geometry import element_directions
-from calibrax_numba_dem.layout import (P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SKIN, P_USE_BASE, P_USE_CYL, P_USE_HEAD,
+from calibrax_numba_dem.layout import (P_MU, P_MUR, P_NBLADES, P_NRIBS, P_USE_BASE, P_USE_CYL, P_USE_HEAD,
                                        W_SIZE)
 from dem_throughput import prepare
 
@@ -56,7 +56,8 @@ def pair_kernel_time(s: DEMSystem, rad: np.ndarray, params: np.ndarray, calls: i
     of the pair history, so the state is left as it was)."""
     fo = np.zeros((s.n, 6))
     hist, rhist, pf = s.hist.copy(), s.rhist.copy(), s.pf.copy()
-    return best_time(lambda: pair_forces(s.x, s.v, s.w, rad, s.mass, s.start, s.pj, hist, rhist, params, pf, fo),
+    return best_time(lambda: pair_forces(s.x, s.v, s.w, rad, s.mass, s.start, s.pj, s.pimg, hist, rhist, params, pf,
+                                         fo),
                      calls, rounds, s.n)
 
 
@@ -105,9 +106,7 @@ def profile(s0: DEMSystem, steps: int, calls: int, rounds: int) -> dict[str, flo
     g_partners = gather_time(s, no_walls, True, calls, rounds)
     g_all = gather_time(s, p, True, calls, rounds)
     r = copy.deepcopy(s)
-    t_build = best_time(lambda: rebuild(r.x, r.rad, r.params[P_SKIN], r.cell_size, r.start, r.pj, r.hist, r.rhist,
-                                        r.rstart, r.rpair, r.start2, r.pj2, r.hist2, r.rhist2, r.x_build),
-                        max(1, calls // 10), rounds, r.n)
+    t_build = best_time(r.rebuild_lists, max(1, calls // 10), rounds, r.n)
     return {"pairs, open": t_open, "pairs, normal": t_normal - t_open, "pairs, sliding": t_sliding - t_normal,
             "pairs, rolling": t_all - t_sliding, "integration": g_bare, "partner shares": g_partners - g_bare,
             "walls, base, ribs, head": g_all - g_partners, "list builds": t_build * builds,

@@ -253,8 +253,7 @@ def _print_check(config) -> None:
     cells = [(f"{f.name} ({f.cost:g} CPU-s per simulation{', the target' if f is config.fidelities[-1] else ''})",
               f.spec) for f in config.fidelities] or [("", config.spec)]
     for name, spec in cells:
-        print(f"# cell{' ' + name if name else ''}: {spec.particle_count} particles, "
-              f"{spec.particles_per_diameter:.1f} per diameter, Δt = {spec.time_step:.3g} s "
+        print(f"# cell{' ' + name if name else ''}: {spec.cell_words()}, Δt = {spec.time_step:.3g} s "
               f"({spec.numerics.dt_fraction:g} × Δt_crit {spec.critical_time_step:.3g} s "
               f"at σ0 = {spec.numerics.stress_for_dt or spec.procedure.preshear_stress:g} Pa)")
     exp = config.experiment

@@ -170,8 +170,7 @@ def test_history_carried_over_list_rebuild() -> None:
     """A rebuild keeps every surviving pair's tangential and rolling history (keyed by pair)."""
     import numpy as np
 
-    from calibrax_numba_dem.engine import numba_threads, rebuild
-    from calibrax_numba_dem.layout import P_SKIN
+    from calibrax_numba_dem.engine import numba_threads
 
     s = _cluster()
     with numba_threads(1):
@@ -187,8 +186,7 @@ def test_history_carried_over_list_rebuild() -> None:
     before = by_pair(s)
     assert sum(np.any(h != 0) for h, _ in before.values()) > 10
     s.x += 1e-6 * np.sin(np.arange(s.n))[:, None]  # a different binning, the same pairs
-    rebuild(s.x, s.rad, s.params[P_SKIN], s.cell_size, s.start, s.pj, s.hist, s.rhist, s.rstart, s.rpair,
-            s.start2, s.pj2, s.hist2, s.rhist2, s.x_build)
+    s.rebuild_lists()
     after = by_pair(s)
     common = set(before) & set(after)
     assert len(common) > 0.9 * len(before)

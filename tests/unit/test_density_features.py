@@ -44,7 +44,7 @@ def test_the_conditioned_bulk_density_of_a_simple_cubic_packing_is_pi_over_6_of_
     x, y, z = (2 * r * ix + r).ravel(), (2 * r * iy + r).ravel(), (2 * r * iz + r).ravel()
     vessel = 2 * r * n * 0.95
     inside = np.hypot(x, y) < vessel
-    density = conditioned_bulk_density(z[inside], np.full(inside.sum(), r), rho, vessel)
+    density = conditioned_bulk_density(z[inside], np.full(inside.sum(), r), rho, math.pi * vessel**2)
     # the split plane lies at 3/4 of the top (18 r): 13.5 r, where the cut layer's cap fills the rest
     assert SPLIT_HEIGHT_FRACTION * 2 * r * layers == pytest.approx(13.5e-3)
     assert density == pytest.approx(math.pi / 6 * rho, rel=0.02)

@@ -19,7 +19,7 @@ from calibrax.errors import ConfigError
 #: lacks is refused by :func:`check_capabilities` before anything runs.
 #: (``compressibility_test``: the FT4's compressibility ramp, procedure.compressibility_stresses)
 KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                                "compressibility_test"})
+                                "compressibility_test", "sector"})
 
 
 @runtime_checkable
@@ -47,10 +47,11 @@ class Simulator(Protocol):
         ...
 
 
-def required_capabilities(spec: ShearCellSpec) -> set[str]:
-    """The optional effects a spec switches on: the declared capability of every field whose value
-    is not its "off" value (:class:`~calibrax.core.sheartest.fields.FieldInfo`)."""
-    need = set()
+def capability_fields(spec: ShearCellSpec) -> dict[str, str]:
+    """The optional effects a spec switches on, each with the first field that switches it on:
+    the declared capability of every field whose value is not its "off" value
+    (:class:`~calibrax.core.sheartest.fields.FieldInfo`), e.g. ``{"sector": "geometry.sector"}``."""
+    need: dict[str, str] = {}
     for path, info in declared_fields(type(spec)):
         if info.capability is None:
             continue
@@ -58,14 +59,22 @@ def required_capabilities(spec: ShearCellSpec) -> set[str]:
         if isinstance(value, (list, tuple)):
             value = tuple(value)
         if value != info.off:
-            need.add(info.capability)
+            need.setdefault(info.capability, path)
     return need
 
 
-def check_capabilities(simulator: Simulator, spec: ShearCellSpec) -> None:
-    """Refuse a spec that asks for an effect the backend cannot model."""
-    missing = required_capabilities(spec) - set(simulator.capabilities())
-    if missing:
-        raise ConfigError("simulator", f"{simulator.name} cannot model {sorted(missing)}; "
-                          f"it models {sorted(simulator.capabilities())}")
+def required_capabilities(spec: ShearCellSpec) -> set[str]:
+    """The optional effects a spec switches on (:func:`capability_fields`)."""
+    return set(capability_fields(spec))
 
+
+def check_capabilities(simulator: Simulator, spec: ShearCellSpec) -> None:
+    """Refuse a spec that asks for an effect the backend cannot model, naming the spec's field
+    (``cell.geometry.sector``) that asks for it."""
+    need = capability_fields(spec)
+    missing = sorted(set(need) - set(simulator.capabilities()))
+    if missing:
+        raise ConfigError(f"cell.{need[missing[0]]}",
+                          f"{simulator.name} cannot model {missing} (set by "
+                          f"{', '.join('cell.' + need[m] for m in missing)}); it models "
+                          f"{sorted(simulator.capabilities())}")

@@ -297,10 +297,13 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
 
 
 def _cell_words(data: CampaignData) -> str:
-    """" on the 'tiny' cell" when the campaign's cell names its preset, else ""."""
+    """" on the 'tiny' cell" when the campaign's cell names its preset, else "", and the sector when
+    the cell is one (" (a 1/4 periodic sector of it)")."""
     cell = data.config.get("cell")
     preset = (cell.get("preset") or cell.get("name")) if isinstance(cell, dict) else None
-    return f" on the '{preset}' cell" if isinstance(preset, str) else ""
+    sector = cell.get("geometry", {}).get("sector", 1) if isinstance(cell, dict) else 1
+    words = f" on the '{preset}' cell" if isinstance(preset, str) else ""
+    return words + (f" (a 1/{sector} periodic sector of it)" if isinstance(sector, int) and sector > 1 else "")
 
 
 def _identifiability(data: CampaignData, answer) -> str:

@@ -98,6 +98,7 @@ def status_text(store: CampaignStore) -> str:
               for k in ("done", "no metric", "failed", "running", "in flight", "queued", "interrupted")}
     text = ", ".join(f"{n} {k}" for k, n in counts.items() if n or k in ("done", "failed"))
     lines.append(f"\n{len(points)} points: {text}" + ("; the campaign is running" if live else ""))
+    lines.extend(cell_lines(store))
     lines.extend(fidelity_lines(store, points))
     if counts["interrupted"]:
         lines.append("interrupted simulations run again when the campaign is run again (calibrax run CAMPAIGN.yaml)")
@@ -111,6 +112,20 @@ def status_text(store: CampaignStore) -> str:
                      f"distance {summary.best_value:.3g} ± {summary.best_uncertainty:.2g}, {summary.noise_text()}")
     lines.extend(experiment_lines(points))
     return "\n".join(lines)
+
+
+def cell_lines(store: CampaignStore) -> list[str]:
+    """The campaign's cell in words (:meth:`ShearCellSpec.cell_words`), [] if the store holds no
+    readable cell (a multi-fidelity campaign's cells are its fidelities')."""
+    from calibrax.core.sheartest.spec import ShearCellSpec
+
+    cell = store.config().get("cell")
+    if not isinstance(cell, dict) or store.config().get("fidelities"):
+        return []
+    try:
+        return [f"cell: {ShearCellSpec.from_dict(cell).cell_words()}"]
+    except (TypeError, ValueError, KeyError):
+        return []
 
 
 def fidelity_lines(store: CampaignStore, points: list[PointRecord]) -> list[str]:

@@ -137,7 +137,7 @@ def poured_density(spec: ShearCellSpec, dump: Path) -> float:
         return math.nan
     if zr.size == 0:
         return math.nan
-    return conditioned_bulk_density(zr[:, 0], zr[:, 1], spec.material.density, spec.geometry.vessel_diameter / 2.0)
+    return conditioned_bulk_density(zr[:, 0], zr[:, 1], spec.material.density, spec.bed_cross_section)
 
 
 def parse_steps(spec: ShearCellSpec, plan: ScriptPlan, workdir: Path, screen: Path

@@ -25,12 +25,15 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from calibrax.core.sheartest.sector import SECTOR_MARGIN_FRACTION
+
 from .contact import clear_history, contact
 from .geometry import element_directions, wall_forces
 from .layout import (H_ACC_BASE, H_ACC_F, H_ACC_N, H_ACC_T, H_SIZE, H_TIME, P_BETA, P_COH, P_DT,
-                     P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SIZE, P_SKIN,
+                     P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SECTOR, P_SIZE, P_SKIN,
                      W_BASE_F, W_HEAD_F, W_HEAD_T, W_SIZE, WALL_SLOTS)
 from .neighbours import build_lists
+from .periodic import rotate_xy, wrap_into_sector
 from .servo import head_drift, head_kick
 
 def prefer_openmp_threads() -> None:
@@ -62,12 +65,15 @@ GATHER_BLOCKS = 64
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH)
-def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
+def pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo):
     """Contact force and torques of every listed pair, once per pair.
 
     Args:
         x, v, w: positions (m), velocities (m/s), angular velocities (rad/s), shape (N, 3).
-        rad, mass: shape (N,). start: shape (N + 1,), pj: shape (P_cap,): the half lists.
+        rad, mass: shape (N,). start: shape (N + 1,), pj, pimg: shape (P_cap,): the half lists and
+            each pair's partner image s (:mod:`periodic`: the owner sees the partner's position,
+            velocity and spin rotated by sΘ about the axis, and the partner's share is rotated
+            back by −sΘ).
         hist, rhist: pair history, shape (P_cap, 3) (updated; cleared when a pair opens).
         params: see :mod:`layout`.
         pf: out, shape (P_cap, PF_SIZE): the partner's share of each pair (zero for open pairs).
@@ -82,6 +88,8 @@ def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
     mu = params[P_MU]
     mur = params[P_MUR]
     coh = params[P_COH]
+    cs = math.cos(params[P_SECTOR])
+    sn = math.sin(params[P_SECTOR])
     for i in prange(n):
         ri = rad[i]
         mi = mass[i]
@@ -96,8 +104,15 @@ def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
         stz = 0.0
         for p in range(start[i], start[i + 1]):
             j = pj[p]
-            dx = xi0 - x[j, 0]
-            dy = xi1 - x[j, 1]
+            # the partner's image: rotated by sΘ (branch-free; exactly the partner for s = 0)
+            s = pimg[p]
+            cj = cs if s != 0 else 1.0
+            sj = s * sn
+            xj0, xj1 = rotate_xy(x[j, 0], x[j, 1], cj, sj)
+            vj0, vj1 = rotate_xy(v[j, 0], v[j, 1], cj, sj)
+            wj0, wj1 = rotate_xy(w[j, 0], w[j, 1], cj, sj)
+            dx = xi0 - xj0
+            dy = xi1 - xj1
             dz = xi2 - x[j, 2]
             r2 = dx * dx + dy * dy + dz * dz
             rj = rad[j]
@@ -115,9 +130,9 @@ def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
             mj = mass[j]
             fx, fy, fz, qx, qy, qz, mx, my, mz, _ = contact(
                 nx, ny, nz, rsum - rr, ri * rj / rsum, mi * mj / (mi + mj),
-                v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
-                ri * w[i, 0] + rj * w[j, 0], ri * w[i, 1] + rj * w[j, 1], ri * w[i, 2] + rj * w[j, 2],
-                w[i, 0] - w[j, 0], w[i, 1] - w[j, 1], w[i, 2] - w[j, 2],
+                v[i, 0] - vj0, v[i, 1] - vj1, v[i, 2] - v[j, 2],
+                ri * w[i, 0] + rj * wj0, ri * w[i, 1] + rj * wj1, ri * w[i, 2] + rj * w[j, 2],
+                w[i, 0] - wj0, w[i, 1] - wj1, w[i, 2] - w[j, 2],
                 e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, p)
             sfx += fx
             sfy += fy
@@ -125,11 +140,13 @@ def pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo):
             stx += mx - ri * qx
             sty += my - ri * qy
             stz += mz - ri * qz
-            pf[p, 0] = fx
-            pf[p, 1] = fy
+            pfx, pfy = rotate_xy(fx, fy, cj, -sj)
+            tjx, tjy = rotate_xy(-mx - rj * qx, -my - rj * qy, cj, -sj)
+            pf[p, 0] = pfx
+            pf[p, 1] = pfy
             pf[p, 2] = fz
-            pf[p, 3] = -mx - rj * qx
-            pf[p, 4] = -my - rj * qy
+            pf[p, 3] = tjx
+            pf[p, 4] = tjy
             pf[p, 5] = -mz - rj * qz
         fo[i, 0] = sfx
         fo[i, 1] = sfy
@@ -231,15 +248,23 @@ def max_displacement2(x, x_build):
 
 
 @njit(cache=True)
-def rebuild(x, rad, skin, cell_size, start, pj, hist, rhist, rstart, rpair, start2, pj2, hist2, rhist2, x_build):
-    """Rebuild the half lists (scratch: start2, pj2, hist2, rhist2), copy them into (start, pj,
-    hist, rhist), record x_build. Returns the pair count; above the capacity ``pj.shape[0]``
-    nothing changed and the caller must enlarge the pair arrays."""
-    total = build_lists(x, rad, skin, cell_size, start, pj, hist, rhist, start2, pj2, hist2, rhist2, rstart, rpair)
+def rebuild(x, v, w, rad, skin, cell_size, params, start, pj, pimg, hist, rhist, rstart, rpair, start2, pj2, pimg2,
+            hist2, rhist2, x_build, wid, whist, wrhist):
+    """In a sector, bring every particle that left the wedge back into it (:mod:`periodic`); then
+    rebuild the half lists (scratch: start2, pj2, pimg2, hist2, rhist2), copy them into (start, pj,
+    pimg, hist, rhist), record x_build. Returns the pair count; above the capacity ``pj.shape[0]``
+    nothing but the wrap changed and the caller must enlarge the pair arrays."""
+    opening = params[P_SECTOR]
+    if opening > 0.0:
+        wrap_into_sector(x, v, w, start, pj, pimg, hist, rhist, wid, whist, wrhist, opening, int(params[P_NBLADES]),
+                         int(params[P_NRIBS]))
+    total = build_lists(x, rad, skin, cell_size, opening, start, pj, pimg, hist, rhist, start2, pj2, pimg2, hist2,
+                        rhist2, rstart, rpair)
     if total > pj.shape[0]:
         return total
     start[:] = start2
     pj[:total] = pj2[:total]
+    pimg[:total] = pimg2[:total]
     hist[:total] = hist2[:total]
     rhist[:total] = rhist2[:total]
     x_build[:, :] = x
@@ -248,7 +273,7 @@ def rebuild(x, rad, skin, cell_size, start, pj, hist, rhist, rstart, rpair, star
 
 @njit(cache=True)
 def advance(nsteps, kick0, x, v, w, f, t, rad, mass, inertia, x_build,
-            start, pj, hist, rhist, rstart, rpair, pf, start2, pj2, hist2, rhist2,
+            start, pj, pimg, hist, rhist, rstart, rpair, pf, start2, pj2, pimg2, hist2, rhist2,
             cell_size, params, head, wid, whist, wrhist):
     """Advance ``nsteps`` steps: per step, rebuild the lists if a particle moved more than half
     the skin since the last build, compute every force at the current positions, kick (the first
@@ -256,7 +281,7 @@ def advance(nsteps, kick0, x, v, w, f, t, rad, mass, inertia, x_build,
 
     Returns (status, steps done, list builds, pair count). Status ``STATUS_OVERFLOW`` means the
     pair arrays overflowed before the step was taken; the caller enlarges them and calls again.
-    (start2, pj2, hist2, rhist2) are scratch buffers for the rebuild.
+    (start2, pj2, pimg2, hist2, rhist2) are scratch buffers for the rebuild.
     """
     dt = params[P_DT]
     skin = params[P_SKIN]
@@ -270,13 +295,13 @@ def advance(nsteps, kick0, x, v, w, f, t, rad, mass, inertia, x_build,
     kick = kick0
     for step in range(nsteps):
         if dmax > lim:
-            total = rebuild(x, rad, skin, cell_size, start, pj, hist, rhist, rstart, rpair, start2, pj2, hist2,
-                            rhist2, x_build)
+            total = rebuild(x, v, w, rad, skin, cell_size, params, start, pj, pimg, hist, rhist, rstart, rpair, start2,
+                            pj2, pimg2, hist2, rhist2, x_build, wid, whist, wrhist)
             if total > pj.shape[0]:
                 return STATUS_OVERFLOW, step, builds, total
             builds += 1
         element_directions(params, head, dirs)
-        pair_forces(x, v, w, rad, mass, start, pj, hist, rhist, params, pf, fo)
+        pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo)
         gather_kick_drift(x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs,
                           wid, whist, wrhist, x_build, kick, part)
         kick = 1.0
@@ -306,7 +331,8 @@ class DEMSystem:
     behind x once stepping has started, as in leapfrog); f, t (N, 3) the forces and torques of the
     last step; rad, mass, inertia (N,); params (P_SIZE,), head (H_SIZE,) — see :mod:`layout`.
     Contacts: the half lists (start (N + 1,), pj (P_cap,), see :mod:`neighbours`) with the pair
-    history hist, rhist (P_cap, 3) (m, N·m) and reverse index (rstart, rpair); wall slots wid
+    history hist, rhist (P_cap, 3) (m, N·m) and reverse index (rstart, rpair), each pair's partner
+    image pimg (P_cap,) in a periodic sector (:mod:`periodic`); wall slots wid
     (N, WALL_SLOTS) with their history whist, wrhist (N · WALL_SLOTS, 3).
     """
 
@@ -326,7 +352,8 @@ class DEMSystem:
         self.head = np.zeros(H_SIZE) if head is None else head
         r_max, r_min = float(self.rad.max()), float(self.rad.min())
         if self.params[P_SKIN] <= 0:
-            self.params[P_SKIN] = 0.3 * r_min
+            # the sector's core keeps a particle's own image out of its neighbour list at this skin
+            self.params[P_SKIN] = SECTOR_MARGIN_FRACTION * r_min
         self.cell_size = 2.0 * r_max + self.params[P_SKIN]
         ratio = r_max / r_min
         self.wid = -np.ones((n, WALL_SLOTS), dtype=np.int64)
@@ -343,16 +370,18 @@ class DEMSystem:
     def _alloc_pairs(self, capacity: int) -> None:
         """(Re)allocate the pair arrays with room for ``capacity`` pairs, keeping the current lists."""
         keep = int(self.start[-1]) if hasattr(self, "pj") else 0
-        old = (self.pj, self.hist, self.rhist, self.rpair) if keep else None
+        old = (self.pj, self.pimg, self.hist, self.rhist, self.rpair) if keep else None
         self.pj = np.zeros(capacity, dtype=np.int64)
+        self.pimg = np.zeros(capacity, dtype=np.int64)
         self.hist = np.zeros((capacity, 3))
         self.rhist = np.zeros((capacity, 3))
         self.rpair = np.zeros(capacity, dtype=np.int64)
         if old is not None:
-            for new, prev in zip((self.pj, self.hist, self.rhist, self.rpair), old):
+            for new, prev in zip((self.pj, self.pimg, self.hist, self.rhist, self.rpair), old):
                 new[:keep] = prev[:keep]
         self.pf = np.zeros((capacity, PF_SIZE))
         self.pj2 = np.zeros_like(self.pj)
+        self.pimg2 = np.zeros_like(self.pimg)
         self.hist2 = np.zeros_like(self.hist)
         self.rhist2 = np.zeros_like(self.rhist)
 
@@ -372,14 +401,24 @@ class DEMSystem:
         while done < nsteps:
             status, k, builds, total = advance(
                 nsteps - done, 1.0 if self._started else 0.5, self.x, self.v, self.w, self.f, self.t, self.rad,
-                self.mass, self.inertia, self.x_build, self.start, self.pj, self.hist, self.rhist,
-                self.rstart, self.rpair, self.pf, self.start2, self.pj2, self.hist2, self.rhist2, self.cell_size,
+                self.mass, self.inertia, self.x_build, self.start, self.pj, self.pimg, self.hist, self.rhist,
+                self.rstart, self.rpair, self.pf, self.start2, self.pj2, self.pimg2, self.hist2, self.rhist2,
+                self.cell_size,
                 self.params, self.head, self.wid, self.whist, self.wrhist)
             done += k
             self._started = self._started or k > 0
             self.list_builds += builds
             if status == STATUS_OVERFLOW:
                 self._alloc_pairs(int(total * 1.5) + 64)
+
+    def rebuild_lists(self) -> int:
+        """Rebuild the neighbour lists now (wrapping a sector's particles first), as
+        :meth:`advance` does when a particle has moved half the skin; returns the pair count
+        (above the capacity nothing but the wrap changed)."""
+        return int(rebuild(self.x, self.v, self.w, self.rad, self.params[P_SKIN], self.cell_size, self.params,
+                           self.start, self.pj, self.pimg, self.hist, self.rhist, self.rstart, self.rpair,
+                           self.start2, self.pj2, self.pimg2, self.hist2, self.rhist2, self.x_build, self.wid,
+                           self.whist, self.wrhist))
 
     def take_accumulators(self) -> tuple[float, float, float, int]:
         """(mean upward force on the head N, mean resisting torque N·m, mean base force N, steps)

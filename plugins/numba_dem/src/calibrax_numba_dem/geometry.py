@@ -1,11 +1,12 @@
 """Analytic boundaries of the FT4 cell: cylindrical vessel wall, flat base with optional radial
-ribs, and the bladed shear head (a disc of radius R_head whose lower face is at height z_h, with
-``blade_count`` thin radial blades of height h_b hanging below it from the hub to the rim).
+ribs, the bladed shear head (a disc of radius R_head whose lower face is at height z_h, with
+``blade_count`` thin radial blades of height h_b hanging below it from the hub to the rim), and a
+periodic sector's frictionless core round the axis.
 
 Every boundary is exact geometry (no mesh): each particle finds its closest point on each
 element, and the contact law of :mod:`contact` is applied with the wall as a body of infinite
 radius and mass. Wall-contact history lives in ``WALL_SLOTS`` slots per particle keyed by element
-id (0 cylinder, 1 base, 2 head disc, 3… blades, then ribs); slot s of particle i is row
+id (0 cylinder, 1 base, 2 head disc, 3… blades, 999 the core, then ribs); slot s of particle i is row
 ``i · WALL_SLOTS + s`` of the wall history arrays. The blades' and ribs' directions are computed
 once per step (:func:`element_directions`), not per particle.
 """
@@ -18,7 +19,7 @@ from numba import njit
 
 from .contact import clear_history, contact
 from .layout import (H_OMEGA, H_PHI, H_VZ, H_Z, P_BETA, P_BLADE_H, P_COH, P_DT, P_ESTAR, P_GSTAR,
-                     P_HEAD_R, P_HUB_R, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR_BASE,
+                     P_CORE_R, P_HEAD_R, P_HUB_R, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR_BASE,
                      P_MUR_HEAD, P_MUR_WALL, P_NBLADES, P_NRIBS, P_RC, P_RIB_H, P_USE_BASE,
                      P_USE_CYL, P_USE_HEAD, WALL_SLOTS)
 
@@ -29,6 +30,8 @@ EID_BLADE0 = 3
 #: the ribs' ids start here, whatever the number of blades, so that a rib contact keeps its history
 #: when the head's blades are retracted (the compressibility test's flat piston)
 EID_RIB0 = 1000
+#: the periodic sector's frictionless core round the axis (calibrax.core.sheartest.sector)
+EID_CORE = 999
 
 
 @njit(cache=True, inline="always")
@@ -154,6 +157,23 @@ def wall_forces(i, x, v, w, rad, mass, params, head, dirs, wid, whist, wrhist):
             s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_CYL, -px / rho, -py / rho, 0.0, r - (rc - rho),
                                                      0.0, 0.0, 0.0, 0.0, params[P_MU_WALL], params[P_MUR_WALL],
                                                      r, m, v, w, params, wid, whist, wrhist)
+            if s >= 0:
+                touched |= 1 << s
+                fx += cfx
+                fy += cfy
+                fz += cfz
+                tx += ctx
+                ty += cty
+                tz += ctz
+    # ---- the sector's core: a frictionless cylinder round the axis, the particles outside it
+    core = params[P_CORE_R]
+    if core > 0.0:
+        rho2 = px * px + py * py
+        if rho2 < (core + r) * (core + r):
+            rho = math.sqrt(rho2)
+            s, cfx, cfy, cfz, ctx, cty, ctz = _touch(i, EID_CORE, px / rho, py / rho, 0.0, r - (rho - core),
+                                                     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, r, m, v, w, params, wid,
+                                                     whist, wrhist)
             if s >= 0:
                 touched |= 1 << s
                 fx += cfx

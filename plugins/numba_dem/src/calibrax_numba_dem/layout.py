@@ -32,7 +32,9 @@ P_BLADE_H = 21      # blade height below the head's lower face, m
 P_NBLADES = 22      # number of blades
 P_MU_HEAD = 23      # head μs
 P_MUR_HEAD = 24     # head μr
-P_SIZE = 25
+P_SECTOR = 25       # opening 2π/k of a periodic sector, rad (0 = the full cell)
+P_CORE_R = 26       # radius of the sector's frictionless core round the axis, m (0 = none)
+P_SIZE = 27
 
 # ---- head: float64 array, shape (H_SIZE,) -------------------------------------------------
 H_Z = 0             # height of the head's lower face above the base, m
@@ -60,5 +62,5 @@ W_HEAD_T = 1        # torque about z of particle i on the head (bed resistance, 
 W_BASE_F = 2        # upward force of base + ribs on particle i, N
 W_SIZE = 3
 
-#: wall-contact history slots per particle (cylinder, base, ribs, head disc, blades)
+#: wall-contact history slots per particle (cylinder, base, ribs, head disc, blades, core)
 WALL_SLOTS = 6

@@ -8,6 +8,10 @@ pairs are ``p = start[i] … start[i + 1] − 1`` with partner ``pj[p]``, in a d
 tangential and rolling history (rows ``p`` of two arrays of shape (P, 3)) is carried over to its
 new slot when the lists are rebuilt (the owner of a pair never changes).
 
+In a periodic sector (:mod:`periodic`) a pair may join i to an image of j across a face: it stores
+the image ``pimg[p]`` (s ∈ {−1, 0, 1}: the partner seen at R(sΘ) x_j), and its history is carried
+over only to the same partner and image.
+
 The reverse index lists, for each particle j, the pairs it is the partner of:
 ``rpair[rstart[j] … rstart[j + 1] − 1]``, in increasing p, so that a particle can sum the forces of
 all its pairs in a fixed order (bit-identical results for any thread count).
@@ -19,6 +23,8 @@ import math
 
 import numpy as np
 from numba import njit, prange
+
+from .periodic import sector_images
 
 
 @njit(cache=True, inline="always")
@@ -78,10 +84,12 @@ def _cell_index(px, py, pz, lo, dims, cell_size):
 
 
 @njit(cache=True, inline="always")
-def _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old, hist_old,
-              rhist_old, base, pj, hist, rhist, fill):
-    """Pairs owned by i within the cut-off. With ``fill`` False only counts them; with ``fill``
-    True writes them from row ``base`` on (partner, carried-over history). Returns the count."""
+def _scan_row(i, x, xe, orig, shift, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old,
+              pimg_old, hist_old, rhist_old, base, pj, pimg, hist, rhist, fill):
+    """Pairs owned by i within the cut-off, among the particles and images ``xe`` (binned: ``order``
+    indexes it; entry q is particle orig[q] seen through image shift[q]). With ``fill`` False only
+    counts them; with ``fill`` True writes them from row ``base`` on (partner, image, carried-over
+    history). Returns the count."""
     px = x[i, 0]
     py = x[i, 1]
     pz = x[i, 2]
@@ -95,21 +103,23 @@ def _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old
             for cx in range(max(ix - 1, 0), min(ix + 2, dims[0])):
                 c = (cz * dims[1] + cy) * dims[0] + cx
                 for q in range(cell_start[c], cell_start[c + 1]):
-                    j = order[q]
+                    e = order[q]
+                    j = orig[e]
                     if j == i or not owns(i, j):
                         continue
-                    dx = px - x[j, 0]
-                    dy = py - x[j, 1]
-                    dz = pz - x[j, 2]
+                    dx = px - xe[e, 0]
+                    dy = py - xe[e, 1]
+                    dz = pz - xe[e, 2]
                     cut = ri + rad[j]
                     if dx * dx + dy * dy + dz * dz >= cut * cut:
                         continue
                     if fill:
                         p = base + k
                         pj[p] = j
+                        pimg[p] = shift[e]
                         found = -1
                         for po in range(start_old[i], start_old[i + 1]):
-                            if pj_old[po] == j:
+                            if pj_old[po] == j and pimg_old[po] == shift[e]:
                                 found = po
                                 break
                         for d in range(3):
@@ -124,14 +134,16 @@ def _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old
 
 
 @njit(parallel=True, cache=True)
-def build_lists(x, rad, skin, cell_size, start_old, pj_old, hist_old, rhist_old,
-                start, pj, hist, rhist, rstart, rpair):
-    """Build the half lists into (start, pj, hist, rhist) and the reverse index (rstart, rpair),
-    carrying the history over from the old lists (start_old, pj_old, hist_old, rhist_old).
+def build_lists(x, rad, skin, cell_size, opening, start_old, pj_old, pimg_old, hist_old, rhist_old,
+                start, pj, pimg, hist, rhist, rstart, rpair):
+    """Build the half lists into (start, pj, pimg, hist, rhist) and the reverse index (rstart,
+    rpair), carrying the history over from the old lists (start_old, pj_old, pimg_old, hist_old,
+    rhist_old).
 
     Args:
-        x: positions, shape (N, 3), m. rad: radii, shape (N,), m. skin, cell_size: m.
-        start_old, start, rstart: shape (N + 1,). pj_old, pj, rpair: shape (P_cap,).
+        x: positions, shape (N, 3), m (inside the sector's wedge when ``opening`` > 0).
+        rad: radii, shape (N,), m. skin, cell_size: m. opening: the sector's Θ, rad (0: full cell).
+        start_old, start, rstart: shape (N + 1,). pj_old, pimg_old, pj, pimg, rpair: shape (P_cap,).
         hist_old, rhist_old, hist, rhist: shape (P_cap, 3).
 
     Returns:
@@ -139,11 +151,12 @@ def build_lists(x, rad, skin, cell_size, start_old, pj_old, hist_old, rhist_old,
         ``start`` was written and the caller must enlarge the pair arrays and call again.
     """
     n = x.shape[0]
-    lo, dims, cell_start, order = bin_particles(x, cell_size)
+    xe, orig, shift = sector_images(x, 2.0 * np.max(rad) + skin, opening)
+    lo, dims, cell_start, order = bin_particles(xe, cell_size)
     counts = np.empty(n, dtype=np.int64)
     for i in prange(n):
-        counts[i] = _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old,
-                              hist_old, rhist_old, 0, pj, hist, rhist, False)
+        counts[i] = _scan_row(i, x, xe, orig, shift, rad, skin, lo, dims, cell_size, cell_start, order, start_old,
+                              pj_old, pimg_old, hist_old, rhist_old, 0, pj, pimg, hist, rhist, False)
     start[0] = 0
     for i in range(n):
         start[i + 1] = start[i] + counts[i]
@@ -151,8 +164,8 @@ def build_lists(x, rad, skin, cell_size, start_old, pj_old, hist_old, rhist_old,
     if total > pj.shape[0]:
         return total
     for i in prange(n):
-        _scan_row(i, x, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old, hist_old,
-                  rhist_old, start[i], pj, hist, rhist, True)
+        _scan_row(i, x, xe, orig, shift, rad, skin, lo, dims, cell_size, cell_start, order, start_old, pj_old,
+                  pimg_old, hist_old, rhist_old, start[i], pj, pimg, hist, rhist, True)
     reverse_index(start, pj, rstart, rpair)
     return total
 

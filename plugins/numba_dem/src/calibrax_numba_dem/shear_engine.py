@@ -9,6 +9,7 @@ import copy
 
 from calibrax.core.sheartest import GRAVITY, INSERTION_FRICTION, POUR_FRICTION, POUR_GRAVITY, ShearCellSpec
 from calibrax.core.sheartest.packing import initial_packing
+from calibrax.core.sheartest.sector import sector_angle
 
 from .contact import beta_from_restitution, effective_moduli
 from .engine import DEMSystem, make_params
@@ -23,7 +24,11 @@ SHEAR_SPEED_LIMIT = 1.0
 
 
 class NumbaShearEngine:
-    """One spec's bed in numba_dem, poured from :func:`initial_packing` in the ``pour`` regime."""
+    """One spec's bed in numba_dem, poured from :func:`initial_packing` in the ``pour`` regime.
+
+    In a periodic sector of 1/k of the cell (``geometry.sector``, :mod:`periodic`) the engine holds
+    the sector's particles and its share of the head: the servo's load, mass and damping are 1/k of
+    the whole head's, and the load it reports is k times the sector's, the whole head's."""
 
     shear_speed_limit = SHEAR_SPEED_LIMIT
 
@@ -46,8 +51,10 @@ class NumbaShearEngine:
             dt=self.time_step, estar=self.contact_modulus, gstar=g_star, beta=beta_from_restitution(m.restitution),
             coh=spec.sjkr_energy_density(), use_cyl=1.0, rc=g.vessel_diameter / 2.0, use_base=1.0,
             nribs=g.base_ribs, rib_h=g.rib_height, use_head=0.0, head_r=g.head_radius, hub_r=g.hub_radius,
-            blade_h=g.blade_height, nblades=g.blade_count)
+            blade_h=g.blade_height, nblades=g.blade_count,
+            sector=sector_angle(g.sector) if g.sector > 1 else 0.0, core_r=spec.core_radius)
         self.blade_count = float(g.blade_count)
+        self.sector = float(g.sector)
         self.sys = DEMSystem(x, radii, m.density, params, v=v)
         self.set_friction("pour")
 
@@ -74,11 +81,11 @@ class NumbaShearEngine:
 
     def set_servo_gains(self, mass: float, damping: float, tau_ref: float) -> None:
         h = self.sys.head
-        h[H_MASS], h[H_DAMP], h[H_TAU_REF] = mass, damping, tau_ref
+        h[H_MASS], h[H_DAMP], h[H_TAU_REF] = mass / self.sector, damping / self.sector, tau_ref
 
     def set_servo(self, force: float, speed_limit: float) -> None:
         h = self.sys.head
-        h[H_MODE], h[H_FTARGET], h[H_VMAX] = 1.0, force, speed_limit
+        h[H_MODE], h[H_FTARGET], h[H_VMAX] = 1.0, force / self.sector, speed_limit
 
     def set_rotation_rate(self, rate: float) -> None:
         self.sys.head[H_OMEGA] = rate
@@ -89,7 +96,7 @@ class NumbaShearEngine:
 
     def take_head_load(self) -> tuple[float, float]:
         f, torque, _, _ = self.sys.take_accumulators()
-        return f, torque
+        return self.sector * f, self.sector * torque
 
     def snapshot(self) -> DEMSystem:
         return copy.deepcopy(self.sys)

@@ -27,9 +27,9 @@ class NumbaDEMSimulator:
 
     def capabilities(self) -> frozenset[str]:
         """Optional effects modelled: wall friction, size distributions, SJKR cohesion, base
-        ribs, rolling friction."""
+        ribs, rolling friction, the compressibility ramp, and a periodic sector of the cell."""
         return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                          "compressibility_test"})
+                          "compressibility_test", "sector"})
 
     def version(self) -> str:
         """``numba_dem <version> (numba <version>)``."""

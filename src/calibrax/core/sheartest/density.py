@@ -47,17 +47,18 @@ def volume_below(z: np.ndarray, radius: np.ndarray, plane: float) -> np.ndarray:
 
 
 def conditioned_bulk_density(z: np.ndarray, radius: np.ndarray, particle_density: float | np.ndarray,
-                             vessel_radius: float) -> float:
+                             cross_section: float) -> float:
     """The conditioned bulk density of a poured bed, kg/m³ (see the module's docstring).
 
     Args:
         z, radius: particle centres' heights above the base and radii, shape (n,), m.
         particle_density: the particles' material density, kg/m³ (scalar or shape (n,)).
-        vessel_radius: m.
+        cross_section: the horizontal area the particles fill, m²: π R² of the vessel (a sector's:
+            :attr:`~calibrax.core.sheartest.spec.ShearCellSpec.bed_cross_section`).
     """
     plane = SPLIT_HEIGHT_FRACTION * bed_top(z, radius)
     mass = float(np.sum(np.asarray(particle_density, float) * volume_below(z, radius, plane)))
-    return mass / (math.pi * vessel_radius**2 * plane)
+    return mass / (cross_section * plane)
 
 
 def compressibility_percent(heights: np.ndarray) -> np.ndarray:

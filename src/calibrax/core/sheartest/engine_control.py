@@ -98,11 +98,11 @@ class EngineControl:
 
     def bulk(self) -> float:
         """Bulk density of the bed under the head, kg/m³: particle mass below the head's face over
-        the vessel volume below it."""
+        the volume below it of the vessel (or of its sector outside the core)."""
         e = self.engine
         zh = e.head_height
         below = e.positions[:, 2] < zh
-        return float(np.sum(e.masses[below]) / (math.pi * self.rc**2 * zh))
+        return float(np.sum(e.masses[below]) / (self.spec.bed_cross_section * zh))
 
     def set_servo(self, stress: float, speed_limit: float) -> None:
         """Servo on ``stress`` Pa over the head's area, at most ``speed_limit`` m/s."""
@@ -111,7 +111,7 @@ class EngineControl:
     def tune_servo(self, stress: float, bed_height: float) -> tuple[float, float, float]:
         """Set (and return) the servo's gains for ``stress`` Pa on a bed ``bed_height`` m high."""
         gains = servo_gains(stress, self.area, self.spec.radius, self.engine.contact_modulus, bed_height,
-                            float(np.sum(self.engine.masses)))
+                            self.spec.geometry.sector * float(np.sum(self.engine.masses)))
         self.engine.set_servo_gains(*gains)
         return gains
 

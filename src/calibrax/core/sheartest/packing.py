@@ -26,13 +26,16 @@ class InitialPacking(NamedTuple):
 
 
 def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Generator,
-                   spacing_factor: float = 1.12, jitter: float = 1.0) -> np.ndarray:
+                   spacing_factor: float = 1.12, jitter: float = 1.0, sector: int = 1, core: float = 0.0) -> np.ndarray:
     """Positions (N, 3), m, of spheres with radii ``radii`` (N,) stacked in a column on z = 0.
 
     Spheres sit on a square lattice of pitch a = 2 r_max · ``spacing_factor`` (each layer shifted
     by a random offset, so that the poured bed does not crystallise), inside ``vessel_radius``,
     each moved by a random fraction ``jitter`` of the free gap. Solid fraction ≈ 0.35 before
     pouring (monosized). No sphere overlaps the base; see :func:`initial_packing` for the wall.
+    With ``sector`` k > 1 only the wedge 0 ≤ θ < 2π/k outside the core of radius ``core`` (m) is
+    filled, each sphere half a pitch and its jitter from both faces, so that no sphere overlaps
+    another's periodic image.
     """
     n = radii.size
     r_max = float(radii.max())
@@ -47,7 +50,8 @@ def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Gener
         for iy in range(-m, m + 1):
             for ix in range(-m, m + 1):
                 px, py = ix * a + offx, iy * a + offy
-                if math.hypot(px, py) <= vessel_radius - r_max * 1.02 - free:
+                if math.hypot(px, py) <= vessel_radius - r_max * 1.02 - free and (
+                        sector == 1 or _inside_sector(px, py, sector, core + r_max * 1.02 + free, 0.5 * a + 1.5 * free)):
                     pts.append((px, py, z))
         layer += 1
     pos = np.asarray(pts[:n], dtype=float)
@@ -55,11 +59,23 @@ def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Gener
     return pos
 
 
+def _inside_sector(px: float, py: float, sector: int, inner: float, margin: float) -> bool:
+    """Whether (px, py), m, lies in the wedge 0 ≤ θ < 2π/``sector``, at least ``inner`` from the
+    axis and ``margin`` from both faces (m)."""
+    theta = math.atan2(py, px) % (2.0 * math.pi)
+    rho = math.hypot(px, py)
+    opening = 2.0 * math.pi / sector
+    if theta >= opening or rho < inner:
+        return False
+    to_face = [rho * math.sin(d) if d < 0.5 * math.pi else rho for d in (theta, opening - theta)]
+    return min(to_face) >= margin
+
+
 def initial_packing(spec: ShearCellSpec) -> InitialPacking:
     """The particles of ``spec`` before the pour, drawn from ``spec.numerics.seed``.
 
-    The jitter can push an outer sphere a few per cent of its radius into the vessel wall; a
-    Hertz overlap that deep launches it, so such spheres are moved radially back inside. With
+    The jitter can push an outer sphere a few per cent of its radius into the vessel wall (or a
+    sector's core); a Hertz overlap that deep launches it, so such spheres are moved radially back. With
     base ribs the whole column is lifted by the rib height, so that no sphere starts in a rib.
     """
     rng = np.random.default_rng(spec.numerics.seed)
@@ -67,11 +83,15 @@ def initial_packing(spec: ShearCellSpec) -> InitialPacking:
     radii = spec.size_distribution.sample(spec.radius, n, rng)
     radii = radii[rng.permutation(n)]
     vessel_radius = spec.geometry.vessel_diameter / 2.0
-    x = lattice_column(radii, vessel_radius, rng)
+    sector, core = spec.geometry.sector, spec.core_radius
+    x = lattice_column(radii, vessel_radius, rng, sector=sector, core=core)
     v = rng.normal(0.0, INITIAL_SPEED_SD, size=x.shape)
     rho = np.hypot(x[:, 0], x[:, 1])
     limit = vessel_radius - 1.001 * radii
     scale = np.where(rho > limit, limit / np.maximum(rho, 1e-300), 1.0)
+    if sector > 1:
+        inner = core + 1.001 * radii
+        scale = np.where(rho < inner, inner / np.maximum(rho, 1e-300), scale)
     x[:, :2] *= scale[:, None]
     x[:, 2] = np.maximum(x[:, 2], 1.001 * radii)
     if spec.geometry.base_ribs > 0:

@@ -17,6 +17,7 @@ import numpy as np
 
 from calibrax.core.sheartest.fields import declared, set_paths
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
+from calibrax.core.sheartest.sector import bed_cross_section, core_radius
 from calibrax.core.sheartest.timestep import critical_time_step
 from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
 from calibrax.errors import SpecError
@@ -24,7 +25,8 @@ from calibrax.errors import SpecError
 
 #: (group, field) of spec fields added after specs were hashed, with their defaults
 ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0,
-                                                  ("procedure", "compressibility_stresses"): ()}
+                                                  ("procedure", "compressibility_stresses"): (),
+                                                  ("geometry", "sector"): 1}
 
 
 #: the declarations that many fields share (:class:`~calibrax.core.sheartest.fields.FieldInfo`)
@@ -126,6 +128,8 @@ class Geometry:
     and ribs take the particles' μs and μr (``None``). The lateral wall's rolling friction
     ``wall_rolling_friction`` defaults (``None``) to the particles' μr when the wall has sliding
     friction and to 0 when it has none (:meth:`ShearCellSpec.effective_wall_rolling_friction`).
+    ``sector`` k > 1 simulates 1/k of the cell with rotationally periodic faces and a frictionless
+    core round the axis (:mod:`calibrax.core.sheartest.sector`); k divides the blade and rib counts.
     """
 
     vessel_diameter: float = declared(61.2e-3, **_LENGTH, symbol="D")
@@ -141,6 +145,7 @@ class Geometry:
     head_friction: float | None = declared(None, **_FRICTION, symbol="μh", optional=True)
     base_ribs: int = declared(18, symbol="n_r", low=0, integer=True, capability="base_ribs", off=0)
     rib_height: float = declared(1.8e-3, **_LENGTH, symbol="h_r")
+    sector: int = declared(1, symbol="k", low=1, integer=True, capability="sector", off=1)
 
 
 @dataclass(frozen=True)
@@ -241,10 +246,34 @@ class ShearCellSpec:
         return self.geometry.vessel_diameter / (2.0 * self.radius)
 
     @property
+    def radius_range(self) -> tuple[float, float]:
+        """(smallest, largest) particle radius the size distribution allows, m."""
+        sd = self.size_distribution
+        if sd.kind == "lognormal":
+            return self.radius * sd.min_ratio, self.radius * sd.max_ratio
+        if sd.kind == "table":
+            return min(sd.radii), max(sd.radii)
+        return self.radius, self.radius
+
+    @property
+    def core_radius(self) -> float:
+        """Radius of the sector's frictionless core round the axis, m (0 for the full cell):
+        :func:`calibrax.core.sheartest.sector.core_radius`."""
+        r_min, r_max = self.radius_range
+        return core_radius(self.geometry.sector, r_max, r_min)
+
+    @property
+    def bed_cross_section(self) -> float:
+        """The horizontal area the simulated particles fill, m²: π R² of the vessel, or the sector's
+        share of it outside the core."""
+        return bed_cross_section(self.geometry.sector, self.geometry.vessel_diameter / 2.0, self.core_radius)
+
+    @property
     def particle_count(self) -> int:
-        """Particles needed to fill the cell to ``fill_height`` at ``fill_solid_fraction``."""
+        """Particles needed to fill the cell (or its sector) to ``fill_height`` at
+        ``fill_solid_fraction``."""
         g = self.geometry
-        v_cell = math.pi * (g.vessel_diameter / 2) ** 2 * g.fill_height
+        v_cell = self.bed_cross_section * g.fill_height
         v_p = 4.0 / 3.0 * math.pi * self.radius**3 * self.size_distribution.mean_volume_factor(self.radius)
         return int(round(self.fill_solid_fraction * v_cell / v_p))
 
@@ -252,15 +281,22 @@ class ShearCellSpec:
     def critical_time_step(self) -> float:
         """Δt_crit of the paper's eq. (1) at σ0 (``numerics.stress_for_dt`` or the preshear σ), s."""
         s0 = self.numerics.stress_for_dt or self.procedure.preshear_stress
-        r_min = self.radius * (self.size_distribution.min_ratio if self.size_distribution.kind == "lognormal" else 1.0)
-        if self.size_distribution.kind == "table":
-            r_min = min(self.size_distribution.radii)
+        r_min, _ = self.radius_range
         return critical_time_step(r_min, self.material.density, self.material.reduced_modulus, s0)
 
     @property
     def time_step(self) -> float:
         """Δt = dt_fraction · Δt_crit, s."""
         return self.numerics.dt_fraction * self.critical_time_step
+
+    def cell_words(self) -> str:
+        """The simulated cell in words, for ``run --check``, ``status`` and the report: "143
+        particles, 9.0 per diameter, a 1/4 sector (frictionless core 0.75 mm)"."""
+        words = f"{self.particle_count} particles, {self.particles_per_diameter:.1f} per diameter"
+        k = self.geometry.sector
+        if k > 1:
+            words += f", a 1/{k} sector (frictionless core {self.core_radius * 1e3:.2f} mm)"
+        return words
 
     def effective_base_friction(self) -> tuple[float, float]:
         """(μs, μr) of the base: the material's unless set."""

@@ -76,7 +76,8 @@ class StageRunner(EngineControl):
             t_spent += 2.0e-3
         e.set_friction("material")
         self.advance(3.0e-3, "settle")
-        rho = conditioned_bulk_density(e.positions[:, 2], e.radii, self.spec.material.density, self.rc)
+        rho = conditioned_bulk_density(e.positions[:, 2], e.radii, self.spec.material.density,
+                                       self.spec.bed_cross_section)
         self.log(f"t={self.time:.5f} s poured {len(e.radii)} particles in {t_spent:.4f} s; bed top "
                  f"{self.bed_top() * 1e3:.2f} mm (target fill height {h_target * 1e3:.2f} mm); conditioned bulk "
                  f"density {rho:.0f} kg/m³")

@@ -42,6 +42,7 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
         raise SpecError("geometry.base_friction",
                         "wall, base and ribs are all frictionless: nothing holds the bed and it turns "
                         "with the head; give the base friction (default: the particles' μs) or ribs")
+    _validate_sector(spec)
     if g.blade_height >= g.fill_height:
         raise SpecError("geometry.blade_height", "must be smaller than the fill height")
     sd = spec.size_distribution
@@ -94,6 +95,28 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
                         f"blades are {gap * 1e3:.2f} mm apart at the rim, less than a particle diameter "
                         f"({2e3 * spec.radius:.2f} mm): too few particles for the head")
     return spec
+
+
+def _validate_sector(spec: "ShearCellSpec") -> None:
+    """A sector 1/k of the cell: k divides the blade and rib counts (the sector holds whole
+    blades and ribs), and its core stays inside the hub (where the blades and ribs start)."""
+    g, key = spec.geometry, "geometry.sector"
+    k = g.sector
+    if k == 1:
+        return
+    counts = {"geometry.blade_count": g.blade_count, **({"geometry.base_ribs": g.base_ribs} if g.base_ribs else {})}
+    for name, count in counts.items():
+        if count % k:
+            divisors = [d for d in range(1, count + 1) if all(c % d == 0 for c in counts.values())]
+            raise SpecError(key, f"must divide {name} ({count}) so that the sector holds whole blades and ribs, "
+                            f"got {k}; allowed: {divisors}")
+    if spec.core_radius >= g.hub_radius:
+        allowed = [d for d in range(1, g.blade_count + 1)
+                   if g.blade_count % d == 0 and (g.base_ribs % d == 0 if g.base_ribs else True)
+                   and spec.replace(geometry={"sector": d}).core_radius < g.hub_radius]
+        raise SpecError(key, f"a 1/{k} sector needs a frictionless core of radius {spec.core_radius * 1e3:.2f} mm "
+                        f"round the axis, wider than the hub (geometry.hub_radius = {g.hub_radius * 1e3:.2f} mm) "
+                        f"where the blades start; allowed: {allowed}")
 
 
 def _validate_compressibility(stresses: tuple[float, ...], preshear_stress: float) -> None:

@@ -1,0 +1,76 @@
+"""The periodic sector's spec (``geometry.sector``): what it derives (the core, the particles, the
+area the bed fills), the values it refuses before anything runs (exit 2 naming the field), and the
+backends without rotational periodicity (LIGGGHTS, YADE) refusing it."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.sector import SECTOR_MARGIN_FRACTION, core_radius
+from calibrax.errors import SpecError
+from tests.conftest import write_double_campaign
+from tests.unit.test_bad_inputs import refused
+
+
+def test_the_core_follows_dem_engines_rule_and_the_full_cell_has_none() -> None:
+    """r_core + r_max = (r_max + δ)/sin(π/k), δ = 0.3 r_min; the sector holds its share of the
+    particles outside the core, and the full cell is the former spec to the last bit."""
+    tiny = ShearCellSpec.preset("tiny")
+    quarter = tiny.replace(geometry={"sector": 4})
+    r = tiny.radius
+    assert quarter.core_radius + r == pytest.approx((r + SECTOR_MARGIN_FRACTION * r) / math.sin(math.pi / 4))
+    assert tiny.core_radius == 0.0 and core_radius(1, r, r) == 0.0
+    rc = tiny.geometry.vessel_diameter / 2
+    assert quarter.bed_cross_section == pytest.approx(math.pi * (rc**2 - quarter.core_radius**2) / 4)
+    assert tiny.bed_cross_section == math.pi * rc**2
+    assert quarter.particle_count == round(tiny.particle_count * quarter.bed_cross_section / tiny.bed_cross_section)
+    assert tiny.spec_hash() == "e63518d9b579362c"  # the full cell's hash from before the field existed
+    assert quarter.spec_hash() != tiny.spec_hash()
+    assert "1/4 sector" in quarter.cell_words() and "sector" not in tiny.cell_words()
+
+
+@pytest.mark.parametrize("sector, words", [
+    (0, "must be an integer ≥ 1"), (-2, "must be an integer ≥ 1"), (2.5, "must be an integer"),
+    (3, "must divide geometry.blade_count (8)"), (8, "wider than the hub"),
+])
+def test_a_bad_sector_is_refused_naming_the_field(sector, words) -> None:
+    with pytest.raises(SpecError, match="geometry.sector") as err:
+        ShearCellSpec.preset("tiny").replace(geometry={"sector": sector}).validate()
+    assert words in str(err.value)
+
+
+def test_a_sector_too_narrow_for_its_core_names_the_sectors_allowed() -> None:
+    with pytest.raises(SpecError) as err:
+        ShearCellSpec.preset("tiny").replace(geometry={"sector": 8}).validate()
+    assert "allowed: [1, 2, 4]" in str(err.value)
+
+
+@pytest.mark.parametrize("simulator", ["numba_dem", "liggghts", "yade"])
+def test_run_check_refuses_a_bad_sector_with_exit_2(tmp_path, capsys, simulator) -> None:
+    campaign = write_double_campaign(tmp_path, simulator=simulator,
+                                     cell={"preset": "tiny", "geometry": {"sector": 3}})
+    message = refused(capsys, "run", str(campaign), "--check")
+    assert "cell.geometry.sector" in message and "must divide" in message
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize("simulator", ["liggghts", "yade"])
+def test_a_backend_without_rotational_periodicity_refuses_a_sector(tmp_path, capsys, simulator) -> None:
+    """LIGGGHTS and YADE stay the full cell's cross-check: a sector spec exits 2 naming the field."""
+    campaign = write_double_campaign(tmp_path, simulator=simulator,
+                                     cell={"preset": "tiny", "geometry": {"sector": 2}})
+    message = refused(capsys, "run", str(campaign), "--check")
+    assert "cell.geometry.sector" in message and f"{simulator} cannot model ['sector']" in message
+
+
+def test_numba_dem_takes_a_sector(tmp_path, capsys) -> None:
+    campaign = write_double_campaign(tmp_path, simulator="numba_dem",
+                                     cell={"preset": "tiny", "geometry": {"sector": 4}})
+    from calibrax.cli import main
+
+    assert main(["run", str(campaign), "--check"]) == 0
+    out = capsys.readouterr().out
+    assert "a 1/4 sector (frictionless core 0.75 mm)" in out
