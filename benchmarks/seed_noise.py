@@ -285,7 +285,62 @@ def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
     print()
     for label, *_, results in rows:
         print_variance_split(label, results)
+    print_equivalence([(label, spec, results) for label, spec, *_, results in rows])
     return 0
+
+
+def variant_features(spec, results: list) -> dict[str, np.ndarray]:
+    """The features a variant must keep, one value per seed (shape (seeds,)): the bulk density
+    after the preshears (kg/m³, mean of steps), the mean peak and preshear τ/σ, the yield locus's
+    C (kPa) and AIF (°), and the CPU per test (s)."""
+    from calibrax.core.data.features import result_features, step_mean
+
+    feats = [result_features(r, spec.procedure.peak_window) for r in results]
+    loci = [r.yield_locus() for r in results]
+    return {"bulk density [kg/m³]": np.asarray([f["bulk_density"] for f in feats]),
+            "peak τ/σ": np.asarray([step_mean(f, "peak_ratio") for f in feats]),
+            "preshear τ/σ": np.asarray([step_mean(f, "preshear_ratio") for f in feats]),
+            "C [kPa]": np.asarray([lo.cohesion / 1e3 for lo in loci]),
+            "AIF [°]": np.asarray([lo.aif_deg for lo in loci]),
+            "CPU [s/test]": np.asarray([r.provenance.wall_time * r.provenance.threads for r in results])}
+
+
+def difference_interval(a: np.ndarray, b: np.ndarray, level: float = 0.9) -> tuple[float, float, float]:
+    """(mean(b) − mean(a), and the ``level`` Welch confidence interval of it) for two samples of
+    independent seeds, shapes (n,) and (m,)."""
+    from scipy import stats
+
+    va, vb = np.var(a, ddof=1) / a.size, np.var(b, ddof=1) / b.size
+    dof = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1)) if va + vb > 0 else math.inf
+    half = float(stats.t.ppf(0.5 + level / 2, dof) * math.sqrt(va + vb))
+    d = float(np.mean(b) - np.mean(a))
+    return d, d - half, d + half
+
+
+def print_equivalence(rows: list) -> None:
+    """Each feature of each variant against the first variant's (the reference): mean, seed s.d.
+    with its 90 % interval, the difference with its 90 % Welch interval, and whether the two are
+    equal within the seed noise (the difference's interval holds 0)."""
+    print(f"
+against '{rows[0][0]}' (mean, seed s.d. [90 % CI of the s.d.], difference [90 % CI]; 'equal' when "
+          "the difference's interval holds 0):
+")
+    print("| feature | variant | seeds | mean | seed s.d. [90 % CI] | difference [90 % CI] | within noise |")
+    print("|---|---|---|---|---|---|---|")
+    reference = variant_features(rows[0][1], rows[0][2])
+    for label, spec, results in rows:
+        values = variant_features(spec, results)
+        for name, v in values.items():
+            lo, hi = sd_interval(v)
+            cell = f"| {name} | {label} | {v.size} | {np.mean(v):.4g} | {np.std(v, ddof=1):.3g} [{lo:.3g}–{hi:.3g}] |"
+            if label == rows[0][0]:
+                print(cell + " reference | |")
+                continue
+            d, d_lo, d_hi = difference_interval(reference[name], v)
+            same = "CPU" in name or d_lo <= 0.0 <= d_hi
+            verdict = "" if "CPU" in name else ("equal" if same else "DIFFERENT")
+            ratio = f" (×{np.mean(v) / np.mean(reference[name]):.2f})" if "CPU" in name else ""
+            print(cell + f" {d:+.3g} [{d_lo:+.3g}, {d_hi:+.3g}]{ratio} | {verdict} |")
 
 
 if __name__ == "__main__":
