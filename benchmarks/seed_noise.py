@@ -321,10 +321,8 @@ def print_equivalence(rows: list) -> None:
     """Each feature of each variant against the first variant's (the reference): mean, seed s.d.
     with its 90 % interval, the difference with its 90 % Welch interval, and whether the two are
     equal within the seed noise (the difference's interval holds 0)."""
-    print(f"
-against '{rows[0][0]}' (mean, seed s.d. [90 % CI of the s.d.], difference [90 % CI]; 'equal' when "
-          "the difference's interval holds 0):
-")
+    print(f"\nagainst '{rows[0][0]}' (mean, seed s.d. [90 % CI of the s.d.], difference [90 % CI]; 'equal' when "
+          "the difference's interval holds 0):\n")
     print("| feature | variant | seeds | mean | seed s.d. [90 % CI] | difference [90 % CI] | within noise |")
     print("|---|---|---|---|---|---|---|")
     reference = variant_features(rows[0][1], rows[0][2])
