@@ -141,3 +141,33 @@ def test_summarise_reads_forks_and_keeps_order():
     records = runner.run((Pour(), Fork((Compress((1.0e3,)), Compress((2.0e3,))))))
     assert engine.head_height == engine.parked  # the fork's head placement was undone
     assert summarise(records).compression_height == pytest.approx([engine.floor, engine.floor])
+
+
+def test_branched_steps_are_one_preshear_and_a_fork_per_shear_stress():
+    spec = ShearCellSpec.preset("tiny").replace(procedure={"branches": True})
+    p = spec.procedure
+    stages = shear_test_stages(spec)
+    assert stages[:4] == (Pour(), InsertBlades(p.preshear_stress), Consolidate(p.preshear_stress),
+                          Rotate("preshear", p.preshear_stress, p.preshear_rotation, True))
+    assert stages[4:] == tuple(Fork((Settle(s), Rotate("shear", s, p.shear_rotation))) for s in p.shear_stresses)
+
+
+def test_a_branched_test_gives_the_result_of_the_same_shape():
+    """Every shear step is paired with the one preshear its branch started from: the result holds
+    a preshear and a shear step per shear stress, as the sequential test's does, and the branches
+    run on the presheared bed (each fork puts it back)."""
+    spec = ShearCellSpec.preset("tiny").replace(procedure={"branches": True}).validate()
+    engine = ToyEngine(spec)
+    runner = StageRunner(spec, engine, RunLog(logging.getLogger("test_procedure_stages")))
+    records = runner.run()
+    n = len(spec.procedure.shear_stresses)
+    assert sum(isinstance(r, ForkRecord) for r in records) == n
+    summary = summarise(records)
+    assert [s.kind for s in summary.steps] == ["preshear", "shear"] * n
+    preshears = summary.steps[0::2]
+    assert all(s is preshears[0] for s in preshears)
+    assert [s.target_stress for s in summary.steps[1::2]] == pytest.approx(list(spec.procedure.shear_stresses))
+    assert summary.bulk_density == [summary.bulk_density[0]] * n
+    result = ShearTestResult.from_steps(spec, summary.steps, summary.bulk_density,
+                                        Provenance("toy", "0", spec.spec_hash(), 0, 0.0, len(engine.radii)))
+    assert result.peak_shear_stress.shape == result.preshear_shear_stress.shape == (n,)

@@ -1,6 +1,6 @@
 """The periodic sector's spec (``geometry.sector``): what it derives (the core, the particles, the
 area the bed fills), the values it refuses before anything runs (exit 2 naming the field), and the
-backends without rotational periodicity (LIGGGHTS, YADE) refusing it."""
+backends without rotational periodicity (LIGGGHTS, YADE) refusing it, and branched steps."""
 
 from __future__ import annotations
 
@@ -58,12 +58,16 @@ def test_run_check_refuses_a_bad_sector_with_exit_2(tmp_path, capsys, simulator)
 
 
 @pytest.mark.parametrize("simulator", ["liggghts", "yade"])
-def test_a_backend_without_rotational_periodicity_refuses_a_sector(tmp_path, capsys, simulator) -> None:
-    """LIGGGHTS and YADE stay the full cell's cross-check: a sector spec exits 2 naming the field."""
-    campaign = write_double_campaign(tmp_path, simulator=simulator,
-                                     cell={"preset": "tiny", "geometry": {"sector": 2}})
+@pytest.mark.parametrize("cell, field, capability", [
+    ({"geometry": {"sector": 2}}, "cell.geometry.sector", "sector"),
+    ({"procedure": {"branches": True}}, "cell.procedure.branches", "branched_steps"),
+])
+def test_liggghts_and_yade_refuse_a_sector_and_branches(tmp_path, capsys, simulator, cell, field, capability) -> None:
+    """LIGGGHTS and YADE stay the full cell's sequential cross-check: a sector or branched steps
+    exit 2 naming the field."""
+    campaign = write_double_campaign(tmp_path, simulator=simulator, cell={"preset": "tiny", **cell})
     message = refused(capsys, "run", str(campaign), "--check")
-    assert "cell.geometry.sector" in message and f"{simulator} cannot model ['sector']" in message
+    assert field in message and f"{simulator} cannot model ['{capability}']" in message
 
 
 def test_numba_dem_takes_a_sector(tmp_path, capsys) -> None:

@@ -17,9 +17,11 @@ from calibrax.errors import ConfigError
 
 #: Effects a backend may declare in ``capabilities()``; a spec that uses an effect the backend
 #: lacks is refused by :func:`check_capabilities` before anything runs.
-#: (``compressibility_test``: the FT4's compressibility ramp, procedure.compressibility_stresses)
+#: (``compressibility_test``: the FT4's compressibility ramp, procedure.compressibility_stresses;
+#: ``sector``: a periodic sector of the cell, geometry.sector; ``branched_steps``: every shear step
+#: from a copy of one presheared bed, procedure.branches)
 KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                                "compressibility_test", "sector"})
+                                "compressibility_test", "sector", "branched_steps"})
 
 
 @runtime_checkable

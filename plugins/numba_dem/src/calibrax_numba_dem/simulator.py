@@ -27,9 +27,10 @@ class NumbaDEMSimulator:
 
     def capabilities(self) -> frozenset[str]:
         """Optional effects modelled: wall friction, size distributions, SJKR cohesion, base
-        ribs, rolling friction, the compressibility ramp, and a periodic sector of the cell."""
+        ribs, rolling friction, the compressibility ramp, a periodic sector of the cell, and shear
+        steps branched from one preshear."""
         return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                          "compressibility_test", "sector"})
+                          "compressibility_test", "sector", "branched_steps"})
 
     def version(self) -> str:
         """``numba_dem <version> (numba <version>)``."""

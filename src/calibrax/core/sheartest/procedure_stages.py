@@ -92,12 +92,17 @@ def shear_test_stages(spec: ShearCellSpec) -> tuple[Stage, ...]:
     """The FT4 shear test of ``spec``: pour; the compressibility ramp on a copy of the poured bed
     (when ``procedure.compressibility_stresses`` is set); blades in and consolidation at the
     preshear stress; then for each shear stress σ_k: settle back at the preshear stress (k > 0),
-    preshear until steady, settle at σ_k, shear."""
+    preshear until steady, settle at σ_k, shear. With ``procedure.branches``: one preshear until
+    steady, then each σ_k's settle and shear on a copy of the presheared bed (a :class:`Fork`)."""
     p = spec.procedure
     stages: list[Stage] = [Pour()]
     if p.compressibility_stresses:
         stages.append(Fork((Compress(tuple(p.compressibility_stresses)),)))
     stages += [InsertBlades(p.preshear_stress), Consolidate(p.preshear_stress)]
+    if p.branches:
+        stages.append(Rotate("preshear", p.preshear_stress, p.preshear_rotation, until_steady=True))
+        stages += [Fork((Settle(sigma), Rotate("shear", sigma, p.shear_rotation))) for sigma in p.shear_stresses]
+        return tuple(stages)
     for k, sigma in enumerate(p.shear_stresses):
         if k > 0:
             stages.append(Settle(p.preshear_stress))

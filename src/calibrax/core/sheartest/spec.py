@@ -26,7 +26,8 @@ from calibrax.errors import SpecError
 #: (group, field) of spec fields added after specs were hashed, with their defaults
 ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0,
                                                   ("procedure", "compressibility_stresses"): (),
-                                                  ("geometry", "sector"): 1}
+                                                  ("geometry", "sector"): 1,
+                                                  ("procedure", "branches"): False}
 
 
 #: the declarations that many fields share (:class:`~calibrax.core.sheartest.fields.FieldInfo`)
@@ -175,6 +176,12 @@ class Procedure:
             on the poured bed as it was (the FT4 tests a fresh sample), and the result carries
             the ramp's bed height at each
             (:attr:`ShearTestResult.compression_height`; features ``compressibility_<σ>kPa``).
+        branches: False (the default): the instrument's sequence, a preshear to steady state before
+            every shear step. True: one preshear, and every shear step starts from a copy of the
+            presheared bed (a :class:`~calibrax.core.sheartest.procedure_stages.Fork` each); every
+            step's preshear values in the result are then that one preshear's. Every preshear of
+            the sequence ends in the same steady state by the FT4's own criterion, so the branches
+            cost one preshear instead of one per step (docs/explanation/sector.md measures both).
     """
 
     preshear_stress: float = declared(15.0e3, unit="Pa", symbol="σ_pre", low=0.0, low_open=True,
@@ -189,6 +196,7 @@ class Procedure:
     settle_time: float = declared(0.02, unit="s", symbol="t_settle", low=0.0)
     peak_window: float = declared(0.01, **_ROTATION, symbol="Δφ_peak")
     compressibility_stresses: tuple[float, ...] = declared((), unit="", capability="compressibility_test", off=())
+    branches: bool = declared(False, unit="", capability="branched_steps", off=False)
 
     @property
     def consolidation_min_time(self) -> float:

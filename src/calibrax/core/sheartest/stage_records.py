@@ -106,14 +106,24 @@ def flatten(records) -> list:
 
 
 def summarise(records) -> StageSummary:
-    """Gather a test's records (forks included) into a :class:`StageSummary`."""
+    """Gather a test's records (forks included) into a :class:`StageSummary`. Every shear step is
+    paired with the preshear before it: a shear step that follows another (the branches of one
+    preshear, ``procedure.branches``) gets that preshear's record again, so that the result holds
+    a preshear and a shear step per shear stress whatever the procedure."""
     s = StageSummary()
     values = {}
+    preshear: RotateRecord | None = None
+    previous = ""
     for rec in flatten(records):
         if isinstance(rec, RotateRecord):
+            if rec.step.kind == "shear" and previous == "shear" and preshear is not None:
+                s.steps.append(preshear.step)
+                s.bulk_density.append(preshear.bulk_density)
             s.steps.append(rec.step)
             s.sigma_errors.append(rec.sigma_error)
+            previous = rec.step.kind
             if rec.step.kind == "preshear":
+                preshear = rec
                 s.bulk_density.append(rec.bulk_density)
         elif isinstance(rec, CompressRecord):
             s.compression_height.extend(rec.heights)

@@ -83,6 +83,8 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
                             f"the cap procedure.preshear_max_rotation ({p.preshear_max_rotation} rad) allows; "
                             "allowed: steady_window ≤ preshear_max_rotation / 2")
     _validate_compressibility(p.compressibility_stresses, p.preshear_stress)
+    if not isinstance(p.branches, bool):
+        raise SpecError("procedure.branches", f"must be true or false, got {p.branches!r}")
     if p.peak_window >= p.shear_rotation:
         raise SpecError("procedure.peak_window", "must be smaller than the shear rotation")
     if spec.particle_count < min_particles:
