@@ -199,7 +199,7 @@ def _mapping(key: str, v: Any, allowed: set[str] | dict) -> dict:
 
 
 def _dataclass_values(key: str, raw: Any, cls: type) -> dict[str, Any]:
-    """Check a mapping against a dataclass's fields by their annotations (float, int, str,
+    """Check a mapping against a dataclass's fields by their annotations (float, int, bool, str,
     ``float | None``, ``tuple[float, ...]``); return the converted values."""
     fields_ = {f.name: str(f.type) for f in dataclasses.fields(cls)}
     _mapping(key, raw, fields_)
@@ -216,6 +216,10 @@ def _dataclass_values(key: str, raw: Any, cls: type) -> dict[str, Any]:
             out[name] = _number(k, value, allow_none=True)
         elif typ == "float":
             out[name] = _number(k, value)
+        elif typ == "bool":
+            if not isinstance(value, bool):
+                raise ConfigError(k, f"must be true or false, got {type(value).__name__} {value!r}")
+            out[name] = value
         else:
             out[name] = _text(k, value)
     return out
