@@ -87,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
     cross.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.crosscheck/)")
     cross.add_argument("--workers", type=int, metavar="N", help="simulations at once (overrides executor.workers)")
 
-    conv = sub.add_parser("converge", help="fidelity study: particles per diameter, time step, shear rate",
+    conv = sub.add_parser("converge", help="fidelity study: particles per diameter (at constant inertial number), "
+                                           "time step, shear rate or inertial number",
                           description="Run the campaign's spec at several fidelity settings with N seeds each and "
                                       "state the cheapest setting whose C, AIF, bulk density and robust features "
                                       "(peak and preshear τ/σ) lie within the uncertainty of the finest (bulk "
@@ -97,6 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
     conv.add_argument("--particles-per-diameter", metavar="LIST", help="e.g. 15,20,25,34 (the paper: 25,34,46,63)")
     conv.add_argument("--dt-fraction", metavar="LIST", help="fractions of the critical time step, e.g. 0.05,0.1,0.2")
     conv.add_argument("--shear-rate", metavar="LIST", help="head rotation rates in rad/s, e.g. 0.5,1,2")
+    conv.add_argument("--inertial-number", metavar="LIST",
+                      help="inertial numbers at the preshear stress (the rate derived for the cell), "
+                           "e.g. 2e-4,5e-4,1e-3 (tiny: 1.4e-3, paper: 4.4e-4)")
     conv.add_argument("--seeds", type=int, default=3, help="seeds per setting (default 3)")
     conv.add_argument("--backend", help="simulator (default: the campaign's)")
     conv.add_argument("-o", "--output", type=Path, metavar="DIR", help="output folder (default: STORE.converge/)")

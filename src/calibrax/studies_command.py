@@ -90,7 +90,7 @@ def converge_command(args: argparse.Namespace) -> int:
 
     settings = {}
     for option, knob in (("particles_per_diameter", "particles_per_diameter"), ("dt_fraction", "dt_fraction"),
-                         ("shear_rate", "rotation_rate")):
+                         ("shear_rate", "rotation_rate"), ("inertial_number", "inertial_number")):
         raw = getattr(args, option)
         if raw is not None:
             try:

@@ -31,6 +31,14 @@ def inertial_number(spec: ShearCellSpec, normal_stress: float) -> float:
     return rate * d / math.sqrt(normal_stress / spec.material.density)
 
 
+def rotation_rate_for_inertial_number(inertial: float, head_radius: float, normal_stress: float,
+                                      density: float) -> float:
+    """The head's rotation rate, rad/s, at which a shear step under ``normal_stress`` (Pa) has the
+    inertial number ``inertial`` (:func:`inertial_number` solved for ω: ω = 10 I √(σ/ρ) / (⅔ R_h),
+    the particle size cancels); ``head_radius`` m, ``density`` the particles' kg/m³."""
+    return inertial * 10.0 * math.sqrt(normal_stress / density) / ((2.0 / 3.0) * head_radius)
+
+
 #: gravitational acceleration, m/s² (every backend's)
 GRAVITY = 9.81
 

@@ -348,6 +348,10 @@ class ShearCellSpec:
     def preset(cls, fidelity: str = "quick", procedure: str = "paper", **overrides: Any) -> "ShearCellSpec":
         """Build a spec from a fidelity preset and a procedure preset.
 
+        A fidelity preset states its rotation rate, or its inertial number at the preshear stress
+        (``procedure.inertial_number``), from which the rate of the cell it builds is derived
+        (:meth:`with_inertial_number`) unless ``overrides`` set ``procedure.rotation_rate``.
+
         Args:
             fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
             procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891", "ft4_3kpa").
@@ -372,10 +376,25 @@ class ShearCellSpec:
             base_ribs=p["base_ribs"],
             rib_height=d,
         )
-        proc = Procedure(**{**PROCEDURES[procedure], **p["procedure"]})
+        values = {**PROCEDURES[procedure], **p["procedure"]}
+        inertial = values.pop("inertial_number", None)
+        proc = Procedure(**values)
         numerics = Numerics(**p["numerics"])
         spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
-        return spec.replace(**overrides)
+        spec = spec.replace(**overrides)
+        if inertial is not None and "rotation_rate" not in overrides.get("procedure", {}):
+            spec = spec.with_inertial_number(inertial)
+        return spec
+
+    def with_inertial_number(self, inertial: float) -> "ShearCellSpec":
+        """A copy whose head turns at the rate that gives the inertial number ``inertial`` at the
+        preshear stress (:func:`~calibrax.core.sheartest.physics.rotation_rate_for_inertial_number`;
+        the shear steps, at lower σ, run at a higher I, ∝ 1/√σ)."""
+        from calibrax.core.sheartest.physics import rotation_rate_for_inertial_number
+
+        rate = rotation_rate_for_inertial_number(inertial, self.geometry.head_radius, self.procedure.preshear_stress,
+                                                 self.material.density)
+        return self.replace(procedure={"rotation_rate": rate})
 
     def with_values(self, values: dict[str, Any]) -> "ShearCellSpec":
         """A copy with each dotted path of ``values`` set (``{"geometry.wall_friction": 0.3,

@@ -22,23 +22,26 @@ from calibrax.core.studies.study import CaseOutcome, StudyCase
 from calibrax.errors import ConfigError, SpecError
 
 #: knob → (cheapest first when sorted ascending?, what "finest" means)
-KNOBS = {"particles_per_diameter": True, "dt_fraction": False, "rotation_rate": False}
+KNOBS = {"particles_per_diameter": True, "dt_fraction": False, "rotation_rate": False, "inertial_number": False}
 #: relative bulk-density difference to the finest setting that still counts as converged (about the
 #: repeatability of a measured conditioned bulk density; the seed spread of a simulated one can be
 #: far smaller)
 DENSITY_TOLERANCE = 0.02
 #: knob → the ``calibrax converge`` option that sets it
 OPTIONS = {"particles_per_diameter": "--particles-per-diameter", "dt_fraction": "--dt-fraction",
-           "rotation_rate": "--shear-rate"}
+           "rotation_rate": "--shear-rate", "inertial_number": "--inertial-number"}
 
 
 def with_particles_per_diameter(spec: ShearCellSpec, ppd: float) -> ShearCellSpec:
     """The same cell at another particle count: D = ppd·2R, with H/D, head and hub radii kept
-    in proportion to D (the paper's way: fixed R and H/D)."""
+    in proportion to D (the paper's way: fixed R and H/D), and the rotation rate scaled by the
+    inverse, so that the inertial number (∝ ω R_head) is the same in every cell and the size axis
+    does not mix in the shear rate."""
     g = spec.geometry
     scale = ppd * 2.0 * spec.radius / g.vessel_diameter
     return spec.replace(geometry={"vessel_diameter": g.vessel_diameter * scale, "fill_height": g.fill_height * scale,
-                                  "head_radius": g.head_radius * scale, "hub_radius": g.hub_radius * scale})
+                                  "head_radius": g.head_radius * scale, "hub_radius": g.hub_radius * scale},
+                        procedure={"rotation_rate": spec.procedure.rotation_rate / scale})
 
 
 def vary(spec: ShearCellSpec, knob: str, value: float) -> ShearCellSpec:
@@ -49,6 +52,8 @@ def vary(spec: ShearCellSpec, knob: str, value: float) -> ShearCellSpec:
         return spec.replace(numerics={"dt_fraction": value})
     if knob == "rotation_rate":
         return spec.replace(procedure={"rotation_rate": value})
+    if knob == "inertial_number":
+        return spec.with_inertial_number(value)
     raise ConfigError("converge", f"unknown knob {knob!r}; allowed: {sorted(KNOBS)}")
 
 
@@ -65,8 +70,8 @@ def converge_cases(config: CampaignConfig, backend: str, seeds: int,
         for v in values:
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(option, f"values must be finite and > 0, got {v:g}")
-            if knob == "dt_fraction" and v > 1:
-                raise ConfigError(option, f"a fraction of the critical time step lies in (0, 1], got {v:g}")
+            if knob in ("dt_fraction", "inertial_number") and v > 1:
+                raise ConfigError(option, f"{'a fraction of the critical time step' if knob == 'dt_fraction' else 'an inertial number'} lies in (0, 1], got {v:g}")
             try:
                 spec = vary(config.spec, knob, v).validate()
             except SpecError as exc:
