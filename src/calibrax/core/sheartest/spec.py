@@ -350,7 +350,8 @@ class ShearCellSpec:
 
         A fidelity preset states its rotation rate, or its inertial number at the preshear stress
         (``procedure.inertial_number``), from which the rate of the cell it builds is derived
-        (:meth:`with_inertial_number`) unless ``overrides`` set ``procedure.rotation_rate``.
+        (:meth:`with_inertial_number`) after ``overrides`` are applied (a cell of other particles
+        or another density gets its own rate).
 
         Args:
             fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
@@ -382,7 +383,7 @@ class ShearCellSpec:
         numerics = Numerics(**p["numerics"])
         spec = cls(geometry=geometry, radius=radius, procedure=proc, numerics=numerics, name=fidelity)
         spec = spec.replace(**overrides)
-        if inertial is not None and "rotation_rate" not in overrides.get("procedure", {}):
+        if inertial is not None:
             spec = spec.with_inertial_number(inertial)
         return spec
 
