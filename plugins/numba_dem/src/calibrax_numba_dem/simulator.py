@@ -71,7 +71,8 @@ class NumbaDEMSimulator:
                 log(f"error: {exc!r}")
                 raise SimulationFailed(f"numba_dem crashed: {exc!r}", log.tail(), kind="crash") from exc
             wall = time.perf_counter() - t0
-            log(f"done in {wall:.1f} s wall time, {driver.sys.list_builds} neighbour-list builds")
+            log(f"done in {wall:.1f} s wall time, {driver.sys.list_builds} neighbour-list builds; CPU by stage: "
+                f"{driver.stage_cpu_words()}")
         finally:
             numba.set_num_threads(old_threads)
             for h in list(logger.handlers):
@@ -84,6 +85,7 @@ class NumbaDEMSimulator:
                                  "consolidation_time": summary.consolidation_time,
                                  "consolidation_rotation": summary.consolidation_rotation,
                                  "insertion_gap_radii": summary.insertion_gap,
+                                 "stage_cpu": {k: round(v, 3) for k, v in driver.stage_cpu.items()},
                                  "stress_area": "pi*head_radius**2"})
         return ShearTestResult.from_steps(spec, summary.steps, summary.bulk_density, prov, driver.warnings,
                                           conditioned_bulk_density=summary.conditioned_bulk_density,

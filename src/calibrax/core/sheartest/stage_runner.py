@@ -12,6 +12,7 @@ over each sample interval. Rotation is counted from 0 at the start of each step.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -34,7 +35,13 @@ from calibrax.core.sheartest.stages import (APPROACH_CLEARANCE, APPROACH_SPEED, 
 STAGE_METHODS = {Pour: "pour", Compress: "compress", InsertBlades: "insert_blades", Consolidate: "consolidate",
                  Settle: "settle", Rotate: "rotate", Fork: "fork"}
 
-__all__ = ["RunLog", "STAGE_METHODS", "StageRunner"]
+__all__ = ["RunLog", "STAGE_METHODS", "StageRunner", "stage_label"]
+
+
+def stage_label(stage: Stage) -> str:
+    """The name a stage's CPU time is counted under: its method's (``pour``, ``settle``,
+    ``fork`` …), a rotation's kind (``preshear``, ``shear``)."""
+    return stage.kind if isinstance(stage, Rotate) else STAGE_METHODS[type(stage)]
 
 
 class StageRunner(EngineControl):
@@ -55,8 +62,28 @@ class StageRunner(EngineControl):
 
     def run_stage(self, stage: Stage) -> Record:
         """Run one stage (by the method :data:`STAGE_METHODS` names, so that a subclass or a
-        diagnostic may wrap it); its record."""
-        return getattr(self, STAGE_METHODS[type(stage)])(stage)
+        diagnostic may wrap it); its record. The process's CPU time it took (every thread's) is
+        added to :attr:`stage_cpu` under :func:`stage_label` (a Fork's own share is only its
+        copies: its stages count under their own labels)."""
+        t0 = time.process_time()
+        inner = sum(self.stage_cpu.values())
+        record = getattr(self, STAGE_METHODS[type(stage)])(stage)
+        spent = time.process_time() - t0 - (sum(self.stage_cpu.values()) - inner)
+        label = stage_label(stage)
+        self.stage_cpu[label] = self.stage_cpu.get(label, 0.0) + spent
+        return record
+
+    def stage_cpu_words(self) -> str:
+        """Each kind of stage's CPU seconds and share of the test's, for the log."""
+        total = sum(self.stage_cpu.values()) or 1.0
+        return ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in self.stage_cpu.items())
+
+    @property
+    def stage_cpu(self) -> dict[str, float]:
+        """CPU seconds spent in each kind of stage so far (:func:`stage_label` → s)."""
+        if not hasattr(self, "_stage_cpu"):
+            self._stage_cpu: dict[str, float] = {}
+        return self._stage_cpu
 
     # ---------------------------------------------------------------- stages
     def pour(self, stage: Pour) -> PourRecord:
