@@ -178,3 +178,31 @@ def test_a_sheared_sector_carries_the_torque_of_its_replica_in_the_full_cell() -
     replica = full.x.reshape(k, n, 3)
     gaps = np.min([np.linalg.norm(replica[m] - sec.x, axis=1) for m in range(k)], axis=0)
     assert gaps.max() < 1e-10
+
+
+def test_a_resumed_campaign_at_a_sector_cell_repeats_nothing(tmp_path) -> None:
+    """A campaign on a half sector of the smoke cell with branched steps runs its two Sobol points;
+    given one more batch it runs only that batch, and ``status`` names the sector."""
+    import yaml
+
+    from calibrax import CampaignStore
+    from tests.conftest import SMOKE_CELL, calibrax_cli, write_backend_campaign
+
+    cell = {**SMOKE_CELL, "geometry": {"sector": 2}, "procedure": {**SMOKE_CELL["procedure"], "branches": True}}
+    path = write_backend_campaign(tmp_path, "numba_dem", cell=cell, budget={"initial": 2, "iterations": 0})
+    first = calibrax_cli("run", str(path), timeout=1800)
+    assert first.returncode == 0, first.stderr[-3000:]
+    store = tmp_path / "runs/campaign.h5"
+    before = {p.id: [s.wall_time for s in p.sims] for p in CampaignStore(store).points()}
+    assert len(before) == 2
+    config = yaml.safe_load(path.read_text())
+    config["budget"]["iterations"] = 1
+    path.write_text(yaml.safe_dump(config, sort_keys=False))
+    again = calibrax_cli("run", str(path), timeout=1800)
+    assert again.returncode == 0, again.stderr[-3000:]
+    points = CampaignStore(store).points()
+    assert len(points) == 4 and all(p.status == "done" for p in points)
+    assert {p.id: [s.wall_time for s in p.sims] for p in points if p.id in before} == before
+    assert "cell: 288 particles, 9.0 per diameter, a 1/2 sector" in again.stderr, again.stderr[:2000]
+    status = calibrax_cli("status", str(store))
+    assert "a 1/2 sector" in status.stdout, status.stdout

@@ -213,6 +213,10 @@ class FidelityPlan(Protocol):
     def spec(self, point: PointRecord) -> ShearCellSpec:
         """The cell ``point``'s simulations run (before its parameters and seed are set)."""
 
+    def cell_words(self) -> str:
+        """The cell (or each fidelity's) in words, for the campaign's first log line
+        (:meth:`ShearCellSpec.cell_words`)."""
+
     def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
         """What follows "k of N simulations done": ``time_left`` (", about 2 min left") with one
         fidelity; with several, the CPU-seconds and simulations so far per fidelity (``cpu``:
@@ -253,6 +257,9 @@ class SingleFidelity:
 
     def spec(self, point: PointRecord) -> ShearCellSpec:
         return self.cell
+
+    def cell_words(self) -> str:
+        return f"cell: {self.cell.cell_words()}"
 
     def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
         return time_left
@@ -317,6 +324,9 @@ class MultiFidelity:
         if not point.fidelity:
             return self.target.spec
         return next(f.spec for f in self.fidelities if f.name == point.fidelity)
+
+    def cell_words(self) -> str:
+        return "cells: " + "; ".join(f"{f.name} {f.spec.cell_words()}" for f in self.fidelities)
 
     def progress(self, cpu: dict[str, list[float]], time_left: str) -> str:
         spent = [(f.name, *cpu[f.name]) for f in self.fidelities if f.name in cpu]

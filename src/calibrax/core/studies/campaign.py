@@ -137,7 +137,8 @@ class Campaign:
             else:
                 state = f"resuming campaign ({stored} of {self._sims_total} simulations stored)"
             self._emit("campaign", f"{state} {cfg.name!r} on {cfg.simulator} ({self.engine.version()}), "
-                       f"{cfg.batching} batches of q = {cfg.q}; store {cfg.store}, work folders in {cfg.workdir}",
+                       f"{cfg.batching} batches of q = {cfg.q}; {cfg.plan.cell_words()}; store {cfg.store}, "
+                       f"work folders in {cfg.workdir}",
                        resumed=not created, complete=complete, simulator=cfg.simulator, engine=self.engine.version(),
                        store=str(cfg.store), workdir=str(cfg.workdir), simulations=self._sims_total)
             previous = self.summary(store)
