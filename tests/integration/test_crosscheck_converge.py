@@ -242,6 +242,8 @@ def test_crosscheck_bad_input_exits_2_naming_the_option(tmp_path, capsys, args, 
     (["--dt-fraction", "0.1,1.5"], "--dt-fraction"),
     (["--dt-fraction", "0.1,abc"], "--dt-fraction"),
     (["--shear-rate", ""], "--shear-rate"),
+    (["--inertial-number", "1e-3,2"], "--inertial-number"),
+    (["--inertial-number", "1e-3"], "--inertial-number"),
     (["--particles-per-diameter", "7,9", "--backend", "no_such_backend"], "--backend"),
     (["--particles-per-diameter", "7,9", "--seeds", "0"], "--seeds"),
 ])
