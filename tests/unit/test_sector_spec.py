@@ -78,3 +78,16 @@ def test_numba_dem_takes_a_sector(tmp_path, capsys) -> None:
     assert main(["run", str(campaign), "--check"]) == 0
     out = capsys.readouterr().out
     assert "a 1/4 sector (frictionless core 0.75 mm)" in out
+
+
+def test_a_crosscheck_runs_the_full_cell_where_a_backend_has_no_sector(tmp_path) -> None:
+    """numba_dem runs the sector, LIGGGHTS and YADE the full cell it stands for: the cross-check is
+    how a sector is checked against the full cell."""
+    from calibrax.core.config import load_config
+    from calibrax.core.studies.crosscheck import crosscheck_cases
+
+    path = write_double_campaign(tmp_path, simulator="numba_dem", cell={"preset": "tiny", "geometry": {"sector": 4}})
+    cases = crosscheck_cases(load_config(path), ["numba_dem", "liggghts", "yade"], 2, [])
+    sectors = {c.backend: c.spec.geometry.sector for c in cases}
+    assert sectors == {"numba_dem": 4, "liggghts": 1, "yade": 1}
+    assert len({c.spec.replace(geometry={"sector": 1}).spec_hash() for c in cases}) == 1

@@ -42,7 +42,8 @@ def outcome_row(o: CaseOutcome, agree: str | None = None) -> str:
     for k in _peak_keys(s):
         sd = s.get(f"{k}_sd", math.nan)
         peaks.append(_fmt(s[k] / 1e3, ".2f") + (f" ± {sd / 1e3:.2f}" if math.isfinite(sd) else ""))
-    cells = [o.case.label, o.case.backend, f"{int(s['seeds_ok'])}/{len(o.case.seeds)}", " / ".join(peaks) or "–",
+    k = o.case.spec.geometry.sector
+    cells = [o.case.label, o.case.backend + (f" (1/{k} sector)" if k > 1 else ""), f"{int(s['seeds_ok'])}/{len(o.case.seeds)}", " / ".join(peaks) or "–",
              _fmt(s.get("bulk_density", math.nan)) + (f" ± {s['bulk_density_sd']:.0f}"
                                                       if math.isfinite(s.get("bulk_density_sd", math.nan)) else ""),
              f"{_fmt(s.get('cohesion', math.nan))} ± {_fmt(s.get('cohesion_stderr', math.nan))} "

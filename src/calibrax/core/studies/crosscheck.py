@@ -52,7 +52,10 @@ def parse_point(text: str, config: CampaignConfig) -> dict[str, float]:
 
 def crosscheck_cases(config: CampaignConfig, backends: list[str], seeds: int,
                      points: list[dict[str, float]]) -> list[StudyCase]:
-    """One case per (point, backend); the same spec and seeds on every backend."""
+    """One case per (point, backend); the same spec and seeds on every backend, except that a
+    backend without rotational periodicity runs the full cell a sector spec stands for
+    (``geometry.sector`` 1): the sector is a device of the simulation, not of the powder, and the
+    cross-check is how it is checked against the full cell."""
     from calibrax.core.simulator import check_capabilities
 
     manager = get_manager()
@@ -68,14 +71,16 @@ def crosscheck_cases(config: CampaignConfig, backends: list[str], seeds: int,
             spec = config.spec.with_values(spec_values(params)).validate()
         except ConfigError as exc:
             raise ConfigError("--points", f"{params}: {exc}") from None
+        specs = {b: spec if "sector" in sim.capabilities() else spec.replace(geometry={"sector": 1})
+                 for b, sim in simulators.items()}
         for b, sim in simulators.items():
             try:
-                check_capabilities(sim, spec)
+                check_capabilities(sim, specs[b])
             except ConfigError as exc:
                 raise ConfigError("--backends", exc.message) from None
         label = ", ".join(f"{k}={v:g}" for k, v in params.items()) or "base spec"
         for b in backends:
-            cases.append(StudyCase(f"P{j}: {label}", b, spec,
+            cases.append(StudyCase(f"P{j}: {label}", b, specs[b],
                                    tuple(config.seed * 1000 + 17 * j + s for s in range(seeds)),
                                    {**params, "point": float(j)}))
     return cases
