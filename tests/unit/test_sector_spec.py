@@ -42,6 +42,25 @@ def test_a_bad_sector_is_refused_naming_the_field(sector, words) -> None:
     assert words in str(err.value)
 
 
+@pytest.mark.parametrize("geometry, words", [
+    ({"sector": 4, "core_radius": 0.1e-3}, "needs a core of at least 0.755 mm"),
+    ({"core_radius": 2.0e-3}, "must be smaller than the hub"),
+    ({"core_radius": -1.0e-3}, "must be > 0"),
+])
+def test_a_bad_core_radius_is_refused_naming_the_field(geometry, words) -> None:
+    with pytest.raises(SpecError, match="geometry.core_radius") as err:
+        ShearCellSpec.preset("tiny").replace(geometry=geometry).validate()
+    assert words in str(err.value)
+
+
+def test_a_full_cell_may_carry_a_sectors_core() -> None:
+    """The core alone, to measure what it changes: the full cell with the core of a 1/4 sector."""
+    tiny = ShearCellSpec.preset("tiny")
+    cored = tiny.replace(geometry={"core_radius": tiny.replace(geometry={"sector": 4}).core_radius}).validate()
+    assert cored.core_radius == pytest.approx(0.755e-3, abs=1e-6)
+    assert cored.particle_count < tiny.particle_count and "a frictionless core of 0.75 mm" in cored.cell_words()
+
+
 def test_a_sector_too_narrow_for_its_core_names_the_sectors_allowed() -> None:
     with pytest.raises(SpecError) as err:
         ShearCellSpec.preset("tiny").replace(geometry={"sector": 8}).validate()

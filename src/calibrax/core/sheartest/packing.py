@@ -33,9 +33,9 @@ def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Gener
     by a random offset, so that the poured bed does not crystallise), inside ``vessel_radius``,
     each moved by a random fraction ``jitter`` of the free gap. Solid fraction ≈ 0.35 before
     pouring (monosized). No sphere overlaps the base; see :func:`initial_packing` for the wall.
-    With ``sector`` k > 1 only the wedge 0 ≤ θ < 2π/k outside the core of radius ``core`` (m) is
-    filled, each sphere half a pitch and its jitter from both faces, so that no sphere overlaps
-    another's periodic image.
+    Only the ring outside a core of radius ``core`` (m) is filled, and with ``sector`` k > 1 only
+    the wedge 0 ≤ θ < 2π/k of it, each sphere half a pitch and its jitter from both faces, so that
+    no sphere overlaps another's periodic image.
     """
     n = radii.size
     r_max = float(radii.max())
@@ -50,8 +50,9 @@ def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Gener
         for iy in range(-m, m + 1):
             for ix in range(-m, m + 1):
                 px, py = ix * a + offx, iy * a + offy
-                if math.hypot(px, py) <= vessel_radius - r_max * 1.02 - free and (
-                        sector == 1 or _inside_sector(px, py, sector, core + r_max * 1.02 + free, 0.5 * a + 1.5 * free)):
+                rho = math.hypot(px, py)
+                if rho <= vessel_radius - r_max * 1.02 - free and (core == 0.0 or rho >= core + r_max * 1.02 + free) \
+                        and (sector == 1 or _inside_sector(px, py, sector, 0.5 * a + 1.5 * free)):
                     pts.append((px, py, z))
         layer += 1
     pos = np.asarray(pts[:n], dtype=float)
@@ -59,13 +60,13 @@ def lattice_column(radii: np.ndarray, vessel_radius: float, rng: np.random.Gener
     return pos
 
 
-def _inside_sector(px: float, py: float, sector: int, inner: float, margin: float) -> bool:
-    """Whether (px, py), m, lies in the wedge 0 ≤ θ < 2π/``sector``, at least ``inner`` from the
-    axis and ``margin`` from both faces (m)."""
+def _inside_sector(px: float, py: float, sector: int, margin: float) -> bool:
+    """Whether (px, py), m, lies in the wedge 0 ≤ θ < 2π/``sector``, at least ``margin`` (m) from
+    both faces."""
     theta = math.atan2(py, px) % (2.0 * math.pi)
     rho = math.hypot(px, py)
     opening = 2.0 * math.pi / sector
-    if theta >= opening or rho < inner:
+    if theta >= opening:
         return False
     to_face = [rho * math.sin(d) if d < 0.5 * math.pi else rho for d in (theta, opening - theta)]
     return min(to_face) >= margin
@@ -89,7 +90,7 @@ def initial_packing(spec: ShearCellSpec) -> InitialPacking:
     rho = np.hypot(x[:, 0], x[:, 1])
     limit = vessel_radius - 1.001 * radii
     scale = np.where(rho > limit, limit / np.maximum(rho, 1e-300), 1.0)
-    if sector > 1:
+    if core > 0.0:
         inner = core + 1.001 * radii
         scale = np.where(rho < inner, inner / np.maximum(rho, 1e-300), scale)
     x[:, :2] *= scale[:, None]

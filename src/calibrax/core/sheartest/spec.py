@@ -27,6 +27,7 @@ from calibrax.errors import SpecError
 ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.0,
                                                   ("procedure", "compressibility_stresses"): (),
                                                   ("geometry", "sector"): 1,
+                                                  ("geometry", "core_radius"): None,
                                                   ("procedure", "branches"): False}
 
 
@@ -131,6 +132,9 @@ class Geometry:
     friction and to 0 when it has none (:meth:`ShearCellSpec.effective_wall_rolling_friction`).
     ``sector`` k > 1 simulates 1/k of the cell with rotationally periodic faces and a frictionless
     core round the axis (:mod:`calibrax.core.sheartest.sector`); k divides the blade and rib counts.
+    ``core_radius`` sets that core's radius (``None``: the sector's own, none for the full cell), at
+    least the sector's and less than the hub's: a full cell with the core of a sector measures what
+    the core alone changes.
     """
 
     vessel_diameter: float = declared(61.2e-3, **_LENGTH, symbol="D")
@@ -147,6 +151,8 @@ class Geometry:
     base_ribs: int = declared(18, symbol="n_r", low=0, integer=True, capability="base_ribs", off=0)
     rib_height: float = declared(1.8e-3, **_LENGTH, symbol="h_r")
     sector: int = declared(1, symbol="k", low=1, integer=True, capability="sector", off=1)
+    core_radius: float | None = declared(None, **_LENGTH, symbol="r_core", optional=True, capability="sector",
+                                         off=None)
 
 
 @dataclass(frozen=True)
@@ -264,11 +270,17 @@ class ShearCellSpec:
         return self.radius, self.radius
 
     @property
-    def core_radius(self) -> float:
-        """Radius of the sector's frictionless core round the axis, m (0 for the full cell):
+    def sector_core_radius(self) -> float:
+        """The smallest frictionless core the sector needs round the axis, m (0 for the full cell):
         :func:`calibrax.core.sheartest.sector.core_radius`."""
         r_min, r_max = self.radius_range
         return core_radius(self.geometry.sector, r_max, r_min)
+
+    @property
+    def core_radius(self) -> float:
+        """Radius of the frictionless core round the axis, m: ``geometry.core_radius`` if set, else
+        :attr:`sector_core_radius`."""
+        return self.sector_core_radius if self.geometry.core_radius is None else self.geometry.core_radius
 
     @property
     def bed_cross_section(self) -> float:
@@ -304,6 +316,8 @@ class ShearCellSpec:
         k = self.geometry.sector
         if k > 1:
             words += f", a 1/{k} sector (frictionless core {self.core_radius * 1e3:.2f} mm)"
+        elif self.core_radius > 0:
+            words += f", a frictionless core of {self.core_radius * 1e3:.2f} mm"
         return words
 
     def effective_base_friction(self) -> tuple[float, float]:

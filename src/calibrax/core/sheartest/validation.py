@@ -104,6 +104,14 @@ def _validate_sector(spec: "ShearCellSpec") -> None:
     blades and ribs), and its core stays inside the hub (where the blades and ribs start)."""
     g, key = spec.geometry, "geometry.sector"
     k = g.sector
+    if g.core_radius is not None:
+        if g.core_radius < spec.sector_core_radius:
+            raise SpecError("geometry.core_radius", f"a 1/{k} sector needs a core of at least "
+                            f"{spec.sector_core_radius * 1e3:.3f} mm, or a particle meets its own image; got "
+                            f"{g.core_radius * 1e3:.3f} mm (null: the sector's own)")
+        if g.core_radius >= g.hub_radius:
+            raise SpecError("geometry.core_radius", f"must be smaller than the hub (geometry.hub_radius = "
+                            f"{g.hub_radius * 1e3:.2f} mm), where the blades start; got {g.core_radius * 1e3:.2f} mm")
     if k == 1:
         return
     counts = {"geometry.blade_count": g.blade_count, **({"geometry.base_ribs": g.base_ribs} if g.base_ribs else {})}
@@ -112,11 +120,11 @@ def _validate_sector(spec: "ShearCellSpec") -> None:
             divisors = [d for d in range(1, count + 1) if all(c % d == 0 for c in counts.values())]
             raise SpecError(key, f"must divide {name} ({count}) so that the sector holds whole blades and ribs, "
                             f"got {k}; allowed: {divisors}")
-    if spec.core_radius >= g.hub_radius:
+    if spec.sector_core_radius >= g.hub_radius:
         allowed = [d for d in range(1, g.blade_count + 1)
                    if g.blade_count % d == 0 and (g.base_ribs % d == 0 if g.base_ribs else True)
-                   and spec.replace(geometry={"sector": d}).core_radius < g.hub_radius]
-        raise SpecError(key, f"a 1/{k} sector needs a frictionless core of radius {spec.core_radius * 1e3:.2f} mm "
+                   and spec.replace(geometry={"sector": d}).sector_core_radius < g.hub_radius]
+        raise SpecError(key, f"a 1/{k} sector needs a frictionless core of radius {spec.sector_core_radius * 1e3:.2f} mm "
                         f"round the axis, wider than the hub (geometry.hub_radius = {g.hub_radius * 1e3:.2f} mm) "
                         f"where the blades start; allowed: {allowed}")
 
