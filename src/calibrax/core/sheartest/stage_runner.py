@@ -18,10 +18,12 @@ import numpy as np
 
 from calibrax.core.sheartest.density import conditioned_bulk_density
 from calibrax.core.sheartest.engine_control import EngineControl, RunLog
+from calibrax.core.sheartest.engine_interface import ShearCellEngine
 from calibrax.core.sheartest.peaks import preshear_drift, steady_schedule
 from calibrax.core.sheartest.physics import GRAVITY, base_layer_bounds, layer_spin, shear_stress_from_torque
 from calibrax.core.sheartest.procedure_stages import (Compress, Consolidate, Fork, InsertBlades, Pour, Rotate,
                                                       Settle, Stage, shear_test_stages)
+from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.core.sheartest.steps import StepRecord
 from calibrax.core.sheartest.stage_records import (CompressRecord, ConsolidateRecord, ForkRecord, InsertRecord,
                                                    PourRecord, Record, RotateRecord, SettleRecord)
@@ -47,6 +49,11 @@ def stage_label(stage: Stage) -> str:
 class StageRunner(EngineControl):
     """Runs stages of one :class:`ShearCellSpec` (already validated) on ``engine``, built for it;
     :meth:`run` returns one record per stage (:mod:`~calibrax.core.sheartest.stage_records`)."""
+
+    def __init__(self, spec: ShearCellSpec, engine: ShearCellEngine, log: RunLog):
+        super().__init__(spec, engine, log)
+        #: CPU seconds spent in each kind of stage so far (:func:`stage_label` → s)
+        self.stage_cpu: dict[str, float] = {}
 
     # ---------------------------------------------------------------- the test
     def run(self, stages: tuple[Stage, ...] | None = None) -> list[Record]:
@@ -78,12 +85,6 @@ class StageRunner(EngineControl):
         total = sum(self.stage_cpu.values()) or 1.0
         return ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in self.stage_cpu.items())
 
-    @property
-    def stage_cpu(self) -> dict[str, float]:
-        """CPU seconds spent in each kind of stage so far (:func:`stage_label` → s)."""
-        if not hasattr(self, "_stage_cpu"):
-            self._stage_cpu: dict[str, float] = {}
-        return self._stage_cpu
 
     # ---------------------------------------------------------------- stages
     def pour(self, stage: Pour) -> PourRecord:
