@@ -104,13 +104,19 @@ def pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo
         stz = 0.0
         for p in range(start[i], start[i + 1]):
             j = pj[p]
-            # the partner's image: rotated by sΘ (branch-free; exactly the partner for s = 0)
+            # the partner's image, rotated by sΘ (s = 0 in the full cell: a branch it always skips)
             s = pimg[p]
-            cj = cs if s != 0 else 1.0
             sj = s * sn
-            xj0, xj1 = rotate_xy(x[j, 0], x[j, 1], cj, sj)
-            vj0, vj1 = rotate_xy(v[j, 0], v[j, 1], cj, sj)
-            wj0, wj1 = rotate_xy(w[j, 0], w[j, 1], cj, sj)
+            xj0 = x[j, 0]
+            xj1 = x[j, 1]
+            vj0 = v[j, 0]
+            vj1 = v[j, 1]
+            wj0 = w[j, 0]
+            wj1 = w[j, 1]
+            if s != 0:
+                xj0, xj1 = rotate_xy(xj0, xj1, cs, sj)
+                vj0, vj1 = rotate_xy(vj0, vj1, cs, sj)
+                wj0, wj1 = rotate_xy(wj0, wj1, cs, sj)
             dx = xi0 - xj0
             dy = xi1 - xj1
             dz = xi2 - x[j, 2]
@@ -140,8 +146,13 @@ def pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo
             stx += mx - ri * qx
             sty += my - ri * qy
             stz += mz - ri * qz
-            pfx, pfy = rotate_xy(fx, fy, cj, -sj)
-            tjx, tjy = rotate_xy(-mx - rj * qx, -my - rj * qy, cj, -sj)
+            pfx = fx
+            pfy = fy
+            tjx = -mx - rj * qx
+            tjy = -my - rj * qy
+            if s != 0:
+                pfx, pfy = rotate_xy(pfx, pfy, cs, -sj)
+                tjx, tjy = rotate_xy(tjx, tjy, cs, -sj)
             pf[p, 0] = pfx
             pf[p, 1] = pfy
             pf[p, 2] = fz
