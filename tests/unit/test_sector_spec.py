@@ -96,7 +96,7 @@ def test_numba_dem_takes_a_sector(tmp_path, capsys) -> None:
 
     assert main(["run", str(campaign), "--check"]) == 0
     out = capsys.readouterr().out
-    assert "a 1/4 sector (frictionless core 0.75 mm)" in out
+    assert "a 1/4 sector (frictionless core 0.75 mm; 4.5 diameters wide at ⅔ R_head)" in out
 
 
 def test_a_crosscheck_runs_the_full_cell_where_a_backend_has_no_sector(tmp_path) -> None:

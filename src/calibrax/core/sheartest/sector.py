@@ -45,3 +45,11 @@ def bed_cross_section(sector: int, vessel_radius: float, core: float) -> float:
     """The horizontal area the particles fill, m²: the vessel's π R², or the sector's
     π (R² − r_core²)/k (the core's share left out)."""
     return math.pi * (vessel_radius**2 - core**2) / sector
+
+
+def sector_width(sector: int, head_radius: float, diameter: float) -> float:
+    """The wedge's arc at two thirds of the head's radius (where τ is read, and the inertial
+    number's shear rate taken), in particle diameters: 2π/k · ⅔ R_head / d. The bias of a sector
+    against the full cell grew as this fell (docs/explanation/sector.md: +0.21 on the mean peak
+    τ/σ at 4.0 diameters, +0.047 at 5.4)."""
+    return sector_angle(sector) * (2.0 / 3.0) * head_radius / diameter

@@ -17,7 +17,7 @@ import numpy as np
 
 from calibrax.core.sheartest.fields import declared, set_paths
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES
-from calibrax.core.sheartest.sector import bed_cross_section, core_radius
+from calibrax.core.sheartest.sector import bed_cross_section, core_radius, sector_width
 from calibrax.core.sheartest.timestep import critical_time_step
 from calibrax.core.sheartest.stages import CONSOLIDATION_LIMIT_FACTOR, CONSOLIDATION_LIMIT_ROTATION
 from calibrax.errors import SpecError
@@ -311,11 +311,14 @@ class ShearCellSpec:
 
     def cell_words(self) -> str:
         """The simulated cell in words, for ``run --check``, ``status`` and the report: "143
-        particles, 9.0 per diameter, a 1/4 sector (frictionless core 0.75 mm)"."""
+        particles, 9.0 per diameter, a 1/4 sector (frictionless core 0.75 mm; 4.5 diameters wide at
+        ⅔ R_head)" (:func:`~calibrax.core.sheartest.sector.sector_width`)."""
         words = f"{self.particle_count} particles, {self.particles_per_diameter:.1f} per diameter"
         k = self.geometry.sector
         if k > 1:
-            words += f", a 1/{k} sector (frictionless core {self.core_radius * 1e3:.2f} mm)"
+            width = sector_width(k, self.geometry.head_radius, 2.0 * self.radius)
+            words += (f", a 1/{k} sector (frictionless core {self.core_radius * 1e3:.2f} mm; {width:.1f} diameters "
+                      "wide at ⅔ R_head)")
         elif self.core_radius > 0:
             words += f", a frictionless core of {self.core_radius * 1e3:.2f} mm"
         return words
