@@ -49,7 +49,7 @@ def bed_cross_section(sector: int, vessel_radius: float, core: float) -> float:
 
 def sector_width(sector: int, head_radius: float, diameter: float) -> float:
     """The wedge's arc at two thirds of the head's radius (where τ is read, and the inertial
-    number's shear rate taken), in particle diameters: 2π/k · ⅔ R_head / d. The bias of a sector
-    against the full cell grew as this fell (docs/explanation/sector.md: +0.21 on the mean peak
-    τ/σ at 4.0 diameters, +0.047 at 5.4)."""
+    number's shear rate taken), in particle diameters: 2π/k · ⅔ R_head / d. A sector's bias on the
+    mean peak τ/σ against the full cell was +0.21 at 4.0 diameters and +0.045 at 5.4–8.0
+    (docs/explanation/sector.md)."""
     return sector_angle(sector) * (2.0 / 3.0) * head_radius / diameter
