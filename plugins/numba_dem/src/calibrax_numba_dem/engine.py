@@ -383,7 +383,8 @@ class DEMSystem:
         keep = int(self.start[-1]) if hasattr(self, "pj") else 0
         old = (self.pj, self.pimg, self.hist, self.rhist, self.rpair) if keep else None
         self.pj = np.zeros(capacity, dtype=np.int64)
-        self.pimg = np.zeros(capacity, dtype=np.int64)
+        # int8: an image index is −1, 0 or 1, and the pair pass reads one per pair
+        self.pimg = np.zeros(capacity, dtype=np.int8)
         self.hist = np.zeros((capacity, 3))
         self.rhist = np.zeros((capacity, 3))
         self.rpair = np.zeros(capacity, dtype=np.int64)
