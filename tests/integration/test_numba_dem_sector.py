@@ -206,3 +206,22 @@ def test_a_resumed_campaign_at_a_sector_cell_repeats_nothing(tmp_path) -> None:
     assert "cell: 288 particles, 9.0 per diameter, a 1/2 sector" in again.stderr, again.stderr[:2000]
     status = calibrax_cli("status", str(store))
     assert "a 1/2 sector" in status.stdout, status.stdout
+
+
+def test_a_wrapped_particles_blade_and_rib_contacts_move_to_the_image_element() -> None:
+    """A particle rotated by wΘ touches, instead of blade (rib) b, the blade (rib) that the rotation
+    carries b onto: its direction is b's turned by wΘ; the vessel, base, disc and core stay."""
+    from calibrax_numba_dem.geometry import EID_BASE, EID_BLADE0, EID_CORE, EID_CYL, EID_DISC, EID_RIB0
+    from calibrax_numba_dem.periodic import _image_element
+
+    n, k, phi = 12, 4, 0.3
+    opening = 2.0 * math.pi / k
+    for w in (-1, 1):
+        for b in range(n):
+            blade = _image_element(EID_BLADE0 + b, w, n, n, k) - EID_BLADE0
+            rib = _image_element(EID_RIB0 + b, w, n, n, k) - EID_RIB0
+            for first, image, offset in ((b, blade, phi), (b, rib, 0.0)):
+                turned = offset + 2.0 * math.pi * first / n + w * opening
+                assert math.cos(offset + 2.0 * math.pi * image / n - turned) == pytest.approx(1.0)
+        for eid in (EID_CYL, EID_BASE, EID_DISC, EID_CORE):
+            assert _image_element(eid, w, n, n, k) == eid
