@@ -119,8 +119,9 @@ def cell_lines(store: CampaignStore) -> list[str]:
     readable cell (a multi-fidelity campaign's cells are its fidelities')."""
     from calibrax.core.sheartest.spec import ShearCellSpec
 
-    cell = store.config().get("cell")
-    if not isinstance(cell, dict) or store.config().get("fidelities"):
+    config = store.config()
+    cell = config.get("cell")
+    if not isinstance(cell, dict) or config.get("fidelities"):
         return []
     try:
         return [f"cell: {ShearCellSpec.from_dict(cell).cell_words()}"]
