@@ -1,5 +1,6 @@
 """Reading a step's time series: the preshear's steady part and how steady it ended, the steady-
-state schedule, and the peak of a shear step (the maximum of a running mean) with the σ under it."""
+state schedule, and the peak of a shear step (the maximum of a running mean, optionally less the
+running mean's own noise) with the σ under it."""
 
 from __future__ import annotations
 
@@ -91,6 +92,49 @@ def running_mean_width(rotation: np.ndarray, window: float) -> int:
     return min(width, max(rot.size, 1))
 
 
+#: the trend :func:`window_noise` measures a running mean's noise about: a running mean this many
+#: peak windows wide
+NOISE_TREND_WINDOWS = 5
+
+
+def running_mean(values: np.ndarray, width: int) -> np.ndarray:
+    """The running mean of ``values`` (shape (n,)) over ``width`` samples, shape (n − width + 1,)."""
+    return np.convolve(np.asarray(values, dtype=float), np.ones(width) / width, mode="valid")
+
+
+def window_noise(rotation: np.ndarray, series: np.ndarray, window: float) -> float:
+    """How loud ``series`` (shape (n,), any unit; τ in Pa for a shear step) is on the scale its peak
+    is read at: the s.d. of its running mean over ``window`` rad (``rotation`` in rad, shape (n,);
+    :func:`running_mean_width`) about a running mean :data:`NOISE_TREND_WINDOWS` times as wide,
+    over the step after its rise (from where the running mean first reaches the median of its
+    second half), so that the rise to the plateau does not count as noise. A real peak narrower
+    than the trend counts partly as noise. Same unit as ``series``; 0 where less than the trend's
+    width follows the rise."""
+    width = running_mean_width(rotation, window)
+    wide = NOISE_TREND_WINDOWS * width
+    means = running_mean(series, width)
+    if means.size < 2:
+        return 0.0
+    risen = np.flatnonzero(means >= np.median(means[means.size // 2:]))
+    tail = np.asarray(series, dtype=float)[int(risen[0]) if risen.size else 0:]
+    if tail.size < wide + width:
+        return 0.0
+    short, trend = running_mean(tail, width), running_mean(tail, wide)
+    offset = (wide - width) // 2
+    return float(np.std(short[offset:offset + trend.size] - trend))
+
+
+def peak_noise_ratio(shear_steps: list, window: float) -> float:
+    """The noise of a test's τ/σ in the peak window: :func:`window_noise` of each shear step's τ
+    over its target σ, averaged over the steps (``shear_steps``: StepRecords), dimensionless. One
+    figure for the test, because the steps share the cell that makes the noise; each step's own
+    scatters (at quick, the correction by each step's own doubled C's seed s.d., by the test's
+    mean it did not)."""
+    values = [window_noise(s.rotation, np.asarray(s.shear_stress) / s.target_stress, window)
+              for s in shear_steps if np.asarray(s.shear_stress).size]
+    return float(np.mean(values)) if values else 0.0
+
+
 def stress_at_peak(rotation: np.ndarray, normal_stress: np.ndarray, window: float, centre: int) -> float:
     """σ (Pa) over the same running-mean window as the peak found at sample ``centre`` by
     :func:`find_peak`: the mean of ``normal_stress`` (shape (n,)) over those samples. (A single
@@ -121,8 +165,7 @@ def find_peak(rotation: np.ndarray, shear_stress: np.ndarray, window: float) -> 
         return float("nan"), -1, float("nan")
     span = rot[-1] - rot[0]
     width = running_mean_width(rot, window)
-    kernel = np.ones(width) / width
-    smooth = np.convolve(tau, kernel, mode="valid")
+    smooth = running_mean(tau, width)
     i = int(np.argmax(smooth))
     centre = i + width // 2
     position = float((rot[centre] - rot[0]) / span) if span > 0 else 1.0

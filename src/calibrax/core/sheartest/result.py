@@ -9,7 +9,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from calibrax.core.sheartest.peaks import find_peak, preshear_drift, preshear_steady_part, stress_at_peak
+from calibrax.core.sheartest.peaks import (find_peak, peak_noise_ratio, preshear_drift, preshear_steady_part,
+                                          stress_at_peak)
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, base_slip, inertial_number,
                                              locus_warning, steady_base_load)
 from calibrax.core.sheartest.spec import ShearCellSpec
@@ -92,8 +93,10 @@ class ShearTestResult:
         shear = [s for s in steps if s.kind == "shear"]
         pre = [s for s in steps if s.kind == "preshear"]
         peaks, sig, pos, inert, tau_pre, sig_pre = [], [], [], [], [], []
+        noise = peak_noise_ratio(shear, spec.procedure.peak_window) if spec.procedure.peak_noise_correction else 0.0
         for k, s in enumerate(shear):
             tau_p, i, where = find_peak(s.rotation, s.shear_stress, spec.procedure.peak_window)
+            tau_p -= spec.procedure.peak_noise_correction * noise * s.target_stress
             peaks.append(tau_p)
             sig.append(stress_at_peak(s.rotation, s.normal_stress, spec.procedure.peak_window, i))
             pos.append(where)

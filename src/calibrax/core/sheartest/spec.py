@@ -28,7 +28,8 @@ ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.
                                                   ("procedure", "compressibility_stresses"): (),
                                                   ("geometry", "sector"): 1,
                                                   ("geometry", "core_radius"): None,
-                                                  ("procedure", "branches"): False}
+                                                  ("procedure", "branches"): False,
+                                                  ("procedure", "peak_noise_correction"): 0.0}
 
 
 #: the declarations that many fields share (:class:`~calibrax.core.sheartest.fields.FieldInfo`)
@@ -174,6 +175,14 @@ class Procedure:
         shear_rotation: head rotation of each shear step (past the peak), rad.
         settle_time: time the head holds the new σ, not rotating, before each rotation starts, s.
         peak_window: width of the running mean the peak is taken from, rad of rotation.
+        peak_noise_correction: how many s.d.s of the running mean's own noise
+            (:func:`~calibrax.core.sheartest.peaks.window_noise`) the peak is read below the
+            running mean's maximum; 0 (the default): the maximum itself, as the FT4 reads its
+            (noise-free) torque. A DEM cell's τ fluctuates, the more the fewer particles carry the
+            head (a 1/k sector's torque √k times the full cell's), and where the mean curve has no
+            peak, a plateau, the maximum reads about 2.5 of these s.d.s above it with 0.3 rad of
+            shear read in 0.03-rad windows (more with more windows): 2.5 then reads the mean
+            curve's peak at every cell size (docs/explanation/sector.md).
         compressibility_stresses: the FT4 compressibility test's normal stresses, Pa, increasing,
             the last at most the preshear stress (e.g. 1, 2, 4, 6, 8, 10, 12, 15 kPa); () = no
             compressibility ramp (the default). When set, the head, its blades retracted (a flat
@@ -201,6 +210,7 @@ class Procedure:
     shear_rotation: float = declared(0.20, **_ROTATION, symbol="φ_shear")
     settle_time: float = declared(0.02, unit="s", symbol="t_settle", low=0.0)
     peak_window: float = declared(0.01, **_ROTATION, symbol="Δφ_peak")
+    peak_noise_correction: float = declared(0.0, symbol="c_noise", low=0.0, high=5.0)
     compressibility_stresses: tuple[float, ...] = declared((), unit="", capability="compressibility_test", off=())
     branches: bool = declared(False, unit="", capability="branched_steps", off=False)
 
