@@ -236,11 +236,14 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run_variant(args: argparse.Namespace, seeds: list[int], changes: dict) -> tuple[object, list]:
-    """Run (or reuse) every seed of one variant; (its seed-0 spec, its results in seed order)."""
+    """Run (or reuse) every seed of one variant; (its seed-0 spec, its results in seed order).
+    Variants that differ only in how the peak is read (``procedure.peak_noise_correction``) share
+    their runs: each is read again off the saved steps."""
     spec = _spec(args, 0, changes)
-    folder = args.cache or Path("runs") / f"seed_noise-{args.simulator}-{args.preset}-{spec.spec_hash()}"
+    run_hash = spec.replace(procedure={"peak_noise_correction": 0.0}).spec_hash()
+    folder = args.cache or Path("runs") / f"seed_noise-{args.simulator}-{args.preset}-{run_hash}"
     if args.cache:
-        folder = folder / spec.spec_hash()
+        folder = folder / run_hash
     folder.mkdir(parents=True, exist_ok=True)
     todo = [s for s in seeds if not (folder / f"seed_{s}.h5").exists()]
     with cf.ProcessPoolExecutor(args.workers) as pool:
@@ -289,17 +292,46 @@ def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
     return 0
 
 
+def shear_noise(step, window: float) -> float:
+    """How loud a shear step's τ/σ is on the scale its peak is read at: the noise of its running
+    mean over ``window`` rad (:func:`~calibrax.core.sheartest.peaks.window_noise`), τ taken over
+    the step's mean σ. The peak is the maximum of that running mean, so where the mean curve has
+    no peak (a plateau) the peak reads about 2.5 of these above it."""
+    from calibrax.core.sheartest.peaks import window_noise
+
+    return window_noise(step.rotation, np.asarray(step.shear_stress) / float(np.mean(step.normal_stress)), window)
+
+
+def mean_curve_peak(spec, results: list) -> float:
+    """The peak τ/σ of the seeds' mean shear curve: every shear step's τ over its mean σ,
+    averaged over steps and seeds sample by sample, then the maximum of its running mean over the
+    peak window. Free of the noise that lifts each test's own peak (one value per variant)."""
+    from calibrax.core.sheartest.peaks import running_mean, running_mean_width
+
+    curves = [np.asarray(s.shear_stress) / float(np.mean(s.normal_stress))
+              for r in results for s in r.steps if s.kind == "shear"]
+    n = min(c.size for c in curves)
+    mean = np.mean([c[:n] for c in curves], axis=0)
+    step = next(s for s in results[0].steps if s.kind == "shear")
+    return float(np.max(running_mean(mean, running_mean_width(step.rotation[:n], spec.procedure.peak_window))))
+
+
 def variant_features(spec, results: list) -> dict[str, np.ndarray]:
     """The features a variant must keep, one value per seed (shape (seeds,)): the bulk density
-    after the preshears (kg/m³, mean of steps), the mean peak and preshear τ/σ, the yield locus's
-    C (kPa) and AIF (°), and the CPU per test (s)."""
+    after the preshears (kg/m³, mean of steps), the mean peak and preshear τ/σ, the τ/σ at the end
+    of the shear steps (past the peak, their last quarter), the shear steps' τ/σ noise
+    (:func:`shear_noise`), the yield locus's C (kPa) and AIF (°), and the CPU per test (s)."""
     from calibrax.core.data.features import result_features, step_mean
 
-    feats = [result_features(r, spec.procedure.peak_window) for r in results]
+    window = spec.procedure.peak_window
+    feats = [result_features(r, window) for r in results]
     loci = [r.yield_locus() for r in results]
     return {"bulk density [kg/m³]": np.asarray([f["bulk_density"] for f in feats]),
             "peak τ/σ": np.asarray([step_mean(f, "peak_ratio") for f in feats]),
             "preshear τ/σ": np.asarray([step_mean(f, "preshear_ratio") for f in feats]),
+            "shear-end τ/σ": np.asarray([step_mean(f, "shear_end_ratio") for f in feats]),
+            "τ/σ noise in the peak window": np.asarray(
+                [np.mean([shear_noise(s, window) for s in r.steps if s.kind == "shear"]) for r in results]),
             "C [kPa]": np.asarray([lo.cohesion / 1e3 for lo in loci]),
             "AIF [°]": np.asarray([lo.aif_deg for lo in loci]),
             "CPU [s/test]": np.asarray([r.provenance.wall_time * r.provenance.threads for r in results])}
@@ -339,6 +371,8 @@ def print_equivalence(rows: list) -> None:
             verdict = "" if "CPU" in name else ("equal" if same else "DIFFERENT")
             ratio = f" (×{np.mean(v) / np.mean(reference[name]):.2f})" if "CPU" in name else ""
             print(cell + f" {d:+.3g} [{d_lo:+.3g}, {d_hi:+.3g}]{ratio} | {verdict} |")
+    print("\nthe peak τ/σ of the seeds' mean shear curve (mean_curve_peak; no seed's own noise in it): "
+          + ", ".join(f"{label} {mean_curve_peak(spec, results):.3f}" for label, spec, results in rows))
 
 
 if __name__ == "__main__":
