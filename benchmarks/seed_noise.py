@@ -292,16 +292,6 @@ def compare(args: argparse.Namespace, variants: list[tuple[str, dict]]) -> int:
     return 0
 
 
-def shear_noise(step, window: float) -> float:
-    """How loud a shear step's τ/σ is on the scale its peak is read at: the noise of its running
-    mean over ``window`` rad (:func:`~calibrax.core.sheartest.peaks.window_noise`), τ taken over
-    the step's mean σ. The peak is the maximum of that running mean, so where the mean curve has
-    no peak (a plateau) the peak reads about 2.5 of these above it."""
-    from calibrax.core.sheartest.peaks import window_noise
-
-    return window_noise(step.rotation, np.asarray(step.shear_stress) / float(np.mean(step.normal_stress)), window)
-
-
 def mean_curve_peak(spec, results: list) -> float:
     """The peak τ/σ of the seeds' mean shear curve: every shear step's τ over its mean σ,
     averaged over steps and seeds sample by sample, then the maximum of its running mean over the
@@ -319,9 +309,12 @@ def mean_curve_peak(spec, results: list) -> float:
 def variant_features(spec, results: list) -> dict[str, np.ndarray]:
     """The features a variant must keep, one value per seed (shape (seeds,)): the bulk density
     after the preshears (kg/m³, mean of steps), the mean peak and preshear τ/σ, the τ/σ at the end
-    of the shear steps (past the peak, their last quarter), the shear steps' τ/σ noise
-    (:func:`shear_noise`), the yield locus's C (kPa) and AIF (°), and the CPU per test (s)."""
+    of the shear steps (past the peak, their last quarter), the test's τ/σ noise in the peak
+    window (:func:`~calibrax.core.sheartest.peaks.peak_noise_ratio`, the figure
+    ``procedure.peak_noise_correction`` scales), the yield locus's C (kPa) and AIF (°), and the
+    CPU per test (s)."""
     from calibrax.core.data.features import result_features, step_mean
+    from calibrax.core.sheartest.peaks import peak_noise_ratio
 
     window = spec.procedure.peak_window
     feats = [result_features(r, window) for r in results]
@@ -331,7 +324,7 @@ def variant_features(spec, results: list) -> dict[str, np.ndarray]:
             "preshear τ/σ": np.asarray([step_mean(f, "preshear_ratio") for f in feats]),
             "shear-end τ/σ": np.asarray([step_mean(f, "shear_end_ratio") for f in feats]),
             "τ/σ noise in the peak window": np.asarray(
-                [np.mean([shear_noise(s, window) for s in r.steps if s.kind == "shear"]) for r in results]),
+                [peak_noise_ratio([s for s in r.steps if s.kind == "shear"], window) for r in results]),
             "C [kPa]": np.asarray([lo.cohesion / 1e3 for lo in loci]),
             "AIF [°]": np.asarray([lo.aif_deg for lo in loci]),
             "CPU [s/test]": np.asarray([r.provenance.wall_time * r.provenance.threads for r in results])}
