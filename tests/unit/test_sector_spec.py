@@ -110,3 +110,16 @@ def test_a_crosscheck_runs_the_full_cell_where_a_backend_has_no_sector(tmp_path)
     sectors = {c.backend: c.spec.geometry.sector for c in cases}
     assert sectors == {"numba_dem": 4, "liggghts": 1, "yade": 1}
     assert len({c.spec.replace(geometry={"sector": 1}).spec_hash() for c in cases}) == 1
+
+
+def test_a_fidelity_preset_may_state_a_sector(monkeypatch) -> None:
+    """A preset's ``sector`` reaches the geometry; the presets without one stay full cells, to the hash."""
+    from calibrax.core.sheartest import presets
+
+    before = ShearCellSpec.preset("paper").spec_hash()
+    monkeypatch.setitem(presets.FIDELITY_PRESETS, "paper_sector", {**presets.FIDELITY_PRESETS["paper"], "sector": 9})
+    spec = ShearCellSpec.preset("paper_sector").validate()
+    assert spec.geometry.sector == 9
+    assert spec.particle_count < ShearCellSpec.preset("paper").particle_count / 8
+    assert ShearCellSpec.preset("paper").geometry.sector == 1
+    assert ShearCellSpec.preset("paper").spec_hash() == before

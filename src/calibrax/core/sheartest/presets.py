@@ -25,6 +25,7 @@ PROCEDURES: dict[str, dict[str, Any]] = {
 #: LIGGGHTS lost atoms at tiny); sticking contacts stack the tangential and rolling springs' rotational
 #: stiffness, and a rib adds one more wall contact, the stiffest kind (R* = r) ``paper`` is the reference paper's converged setting;
 #: ``quick`` fits a 2-core machine; ``tiny`` is for tests and ``make run``.
+#: A preset may state ``sector`` (k of ``geometry.sector``; 1, the full cell, when absent).
 #: Every preset preshears as the FT4 does, until τ/σ is steady (two windows of 0.1 rad within 5 %;
 #: at least 0.3 rad, at most 1 rad): the former fixed preshears of 0.12–0.15 rad ended inside the
 #: transient (at tiny τ/σ fell from 0.94 to a steady 0.55 over the first 0.45 rad of one preshear),

@@ -403,6 +403,7 @@ class ShearCellSpec:
             hub_radius=0.1 * diameter,
             base_ribs=p["base_ribs"],
             rib_height=d,
+            sector=int(p.get("sector", 1)),
         )
         values = {**PROCEDURES[procedure], **p["procedure"]}
         inertial = values.pop("inertial_number", None)
