@@ -5,6 +5,7 @@ backends without rotational periodicity (LIGGGHTS, YADE) refusing it, and branch
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -13,6 +14,8 @@ from calibrax.core.sheartest.sector import SECTOR_MARGIN_FRACTION, core_radius
 from calibrax.errors import SpecError
 from tests.conftest import write_double_campaign
 from tests.unit.test_bad_inputs import refused
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def test_the_core_follows_dem_engines_rule_and_the_full_cell_has_none() -> None:
@@ -123,3 +126,19 @@ def test_a_fidelity_preset_may_state_a_sector(monkeypatch) -> None:
     assert spec.particle_count < ShearCellSpec.preset("paper").particle_count / 8
     assert ShearCellSpec.preset("paper").geometry.sector == 1
     assert ShearCellSpec.preset("paper").spec_hash() == before
+
+
+def test_the_converged_preset_is_the_measured_candidate() -> None:
+    """``converged`` is the cell docs/explanation/sector.md measured (examples/converge-sector.yaml at
+    34 per diameter): the paper's cell as a 1/9 sector at quick's inertial number, branched, with the
+    noise correction; only the name differs, so the measured seeds are its seeds."""
+    from calibrax.core.config import load_config
+    from calibrax.core.sheartest.physics import inertial_number
+
+    converged = ShearCellSpec.preset("converged").validate()
+    quick = ShearCellSpec.preset("quick")
+    assert converged.geometry.sector == 9 and converged.procedure.branches
+    assert converged.particle_count < ShearCellSpec.preset("paper").particle_count / 8
+    assert inertial_number(converged, 15e3) == pytest.approx(inertial_number(quick, 15e3), rel=1e-12)
+    candidate = load_config(EXAMPLES / "converge-sector.yaml").spec
+    assert candidate.replace(name="converged", numerics={"threads": converged.numerics.threads}) == converged

@@ -381,7 +381,7 @@ class ShearCellSpec:
         or another density gets its own rate).
 
         Args:
-            fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "quick", "tiny").
+            fidelity: a key of :data:`FIDELITY_PRESETS` ("paper", "converged", "quick", "tiny").
             procedure: a key of :data:`PROCEDURES` ("paper", "astm_d7891", "ft4_3kpa").
             overrides: ``material=Material(...)``, ``radius=...``, ``numerics={...}`` etc.; dicts
                 update the preset's sub-dataclass field by field.
