@@ -27,7 +27,7 @@ CASES = [
     (lambda c: c.update(experiment="missing.csv"), "missing.csv: file not found"),
     (lambda c: c.update(material={"poisson_ratio": 0.7}), "material.poisson_ratio: must lie in [0, 0.5)"),
     (lambda c: c.update(material={"restitution": float("nan")}), "material.restitution: must be a finite number"),
-    (lambda c: c.update(cell={"preset": "huge"}), "cell.preset: unknown preset 'huge'; allowed: ['paper', 'quick', 'tiny']"),
+    (lambda c: c.update(cell={"preset": "huge"}), "cell.preset: unknown preset 'huge'; allowed: ['converged', 'paper', 'quick', 'tiny']"),
     (lambda c: c.update(cell={"preset": "tiny", "numerics": {"dt_fraction": 2.0}}), "cell.numerics.dt_fraction: must lie in (0, 1]"),
     (lambda c: c.update(cell={"preset": "tiny", "geometry": {"wheels": 3}}), "cell.geometry.wheels: unknown key"),
     (lambda c: c.update(executor={"name": "local", "workers": 0}), "executor.workers: must be an integer ≥ 1"),
@@ -38,7 +38,7 @@ CASES = [
     (lambda c: c.update(description=["batch 3", "B4C"]), "description: must be text, got list"),
     # multi-fidelity campaigns (fidelities: cheapest first, the target last)
     (lambda c: c.update(fidelities=["tiny"]), "fidelities: must be a list of two or more fidelity presets"),
-    (lambda c: c.update(fidelities=["tiny", "huge"]), "fidelities[1]: unknown preset 'huge'; allowed: ['paper', 'quick', 'tiny']"),
+    (lambda c: c.update(fidelities=["tiny", "huge"]), "fidelities[1]: unknown preset 'huge'; allowed: ['converged', 'paper', 'quick', 'tiny']"),
     (lambda c: c.update(fidelities=["quick", "tiny"]), "fidelities[1]: costs 70 CPU-s per simulation, no more than fidelities[0]"),
     (lambda c: c.update(fidelities=["tiny", "tiny"]), "fidelities[1]: preset 'tiny' is listed twice"),
     (lambda c: c.update(fidelities=["tiny", {"preset": "quick", "cost": -1}]), "fidelities[1].cost: must be a finite number > 0"),
