@@ -129,16 +129,26 @@ def test_a_fidelity_preset_may_state_a_sector(monkeypatch) -> None:
 
 
 def test_the_converged_preset_is_the_measured_candidate() -> None:
-    """``converged`` is the cell docs/explanation/sector.md measured (examples/converge-sector.yaml at
-    34 per diameter): the paper's cell as a 1/9 sector at quick's inertial number, branched, with the
-    noise correction; only the name differs, so the measured seeds are its seeds."""
+    """``converged`` is the cell docs/explanation/sector.md measured: examples/converge-sector.yaml
+    taken to 46 per diameter the paper's way (``calibrax converge``'s size axis: the vessel grows,
+    the particles and I stay), the paper's cell as a 1/9 sector at quick's inertial number,
+    branched, with the noise correction. Only the name and the last bits of the scaled lengths
+    differ."""
     from calibrax.core.config import load_config
     from calibrax.core.sheartest.physics import inertial_number
+    from calibrax.core.studies.convergence import with_particles_per_diameter
 
     converged = ShearCellSpec.preset("converged").validate()
     quick = ShearCellSpec.preset("quick")
     assert converged.geometry.sector == 9 and converged.procedure.branches
-    assert converged.particle_count < ShearCellSpec.preset("paper").particle_count / 8
+    assert converged.particle_count < ShearCellSpec.preset("paper").particle_count / 3
     assert inertial_number(converged, 15e3) == pytest.approx(inertial_number(quick, 15e3), rel=1e-12)
-    candidate = load_config(EXAMPLES / "converge-sector.yaml").spec
-    assert candidate.replace(name="converged", numerics={"threads": converged.numerics.threads}) == converged
+    candidate = with_particles_per_diameter(load_config(EXAMPLES / "converge-sector.yaml").spec, 46)
+    lengths = ("vessel_diameter", "fill_height", "head_radius", "hub_radius")
+    for name in lengths:
+        assert getattr(candidate.geometry, name) == pytest.approx(getattr(converged.geometry, name), rel=1e-12), name
+    assert candidate.procedure.rotation_rate == pytest.approx(converged.procedure.rotation_rate, rel=1e-12)
+    rounded = candidate.replace(name="converged", numerics={"threads": converged.numerics.threads},
+                                geometry={name: getattr(converged.geometry, name) for name in lengths},
+                                procedure={"rotation_rate": converged.procedure.rotation_rate})
+    assert rounded == converged

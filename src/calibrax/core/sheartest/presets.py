@@ -25,12 +25,14 @@ PROCEDURES: dict[str, dict[str, Any]] = {
 #: LIGGGHTS lost atoms at tiny); sticking contacts stack the tangential and rolling springs' rotational
 #: stiffness, and a rib adds one more wall contact, the stiffest kind (R* = r) ``paper`` is the reference paper's converged setting;
 #: ``quick`` fits a 2-core machine; ``tiny`` is for tests and ``make run``.
-#: ``converged`` is ``paper``'s cell (34 per diameter, 18 blades and ribs) as numba_dem's 1/9 periodic
-#: sector at ``quick``'s inertial number, its shear steps branched from one presheared bed and its
-#: peak read with the noise correction: about 10 CPU-minutes a test where ``paper`` is tens of
-#: CPU-hours. Its τ/σ features, C and AIF agree with 46 per diameter's and with half its I within
-#: the seed noise; its bulk density is still 3 % under 46's (docs/explanation/sector.md, "The
-#: converged preset"). Only a backend with rotational periodicity (numba_dem) runs it.
+#: ``converged`` is ``paper``'s cell (18 blades and ribs) taken to 46 per diameter the paper's way (the
+#: vessel grows, the particles stay) as numba_dem's 1/9 periodic sector at ``quick``'s inertial
+#: number, its shear steps branched from one presheared bed and its peak read with the noise
+#: correction: about 42 CPU-minutes a test where ``paper`` is tens of CPU-hours. At 34 per diameter
+#: (10 CPU-minutes) the bulk density read 2.8 % under 46's and C 1.0 kPa over it, beyond the seed
+#: noise, so by the rule of the convergence study the finest measured cell is the preset; its
+#: density is still rising with size (docs/explanation/sector.md, "The converged preset").
+#: Only a backend with rotational periodicity (numba_dem) runs it.
 #: A preset may state ``sector`` (k of ``geometry.sector``; 1, the full cell, when absent).
 #: Every preset preshears as the FT4 does, until τ/σ is steady (two windows of 0.1 rad within 5 %;
 #: at least 0.3 rad, at most 1 rad): the former fixed preshears of 0.12–0.15 rad ended inside the
@@ -51,7 +53,7 @@ FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
         "numerics": {"dt_fraction": 0.05, "sample_interval": 2.0e-4},
     },
     "converged": {
-        "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
+        "particles_per_diameter": 46.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
         "sector": 9,
         "procedure": {"inertial_number": QUICK_INERTIAL_NUMBER, **STEADY_PRESHEAR, "shear_rotation": 0.30,
                       "settle_time": 0.005, "peak_window": 0.03, "branches": True, "peak_noise_correction": 2.5},
