@@ -202,6 +202,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {name} | {feature_def(name).unit} | {s.mean:.4g} | {s.sd:.3g} | {rel:.1%} | {s.n} |")
     slips = np.asarray([r["base_slip"] for r in done], dtype=float)
     print()
+    for name, values in variant_features(spec, results).items():
+        lo, hi = sd_interval(values)
+        print(f"{args.preset}: {name} {np.mean(values):.4g}, seed s.d. {np.std(values, ddof=1):.3g} [{lo:.3g}–{hi:.3g}] "
+              f"(90 % CI), median {np.median(values):.4g}, over {values.size} seeds")
+    print()
     print_variance_split(args.preset, results)
     print(f"\nbase slip (bottom layer's spin / head's rate): median {np.nanmedian(slips):.3f}, max {np.nanmax(slips):.3f}")
     if args.spread_out:
