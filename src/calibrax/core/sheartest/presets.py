@@ -29,8 +29,8 @@ PROCEDURES: dict[str, dict[str, Any]] = {
 #: vessel grows, the particles stay) as numba_dem's 1/9 periodic sector at ``quick``'s inertial
 #: number, its shear steps branched from one presheared bed and its peak read with the noise
 #: correction: about 42 CPU-minutes a test where ``paper`` is tens of CPU-hours. At 34 per diameter
-#: (10 CPU-minutes) the bulk density read 2.8 % under 46's and C 1.0 kPa over it, beyond the seed
-#: noise, so by the rule of the convergence study the finest measured cell is the preset; its
+#: (10 CPU-minutes) τ/σ, C and AIF agree with 46's but the bulk density reads 3.0 % under it, beyond
+#: the 2 % the convergence study's rule allows, so the finest measured cell is the preset; its
 #: density is still rising with size (docs/explanation/sector.md, "The converged preset").
 #: Only a backend with rotational periodicity (numba_dem) runs it.
 #: A preset may state ``sector`` (k of ``geometry.sector``; 1, the full cell, when absent).
