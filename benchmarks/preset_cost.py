@@ -20,19 +20,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from seed_noise import _seeds  # noqa: E402  (the same seed syntax as seed_noise)
-
-
-def save(folder: Path, seed: int, result) -> None:
-    """``result`` into ``folder/seed_<seed>.h5``, written aside and renamed (seed_noise's format)."""
-    import h5py
-
-    from calibrax.core.running.store import write_result_group
-
-    tmp = folder / f".seed_{seed}.h5.tmp"
-    with h5py.File(tmp, "w") as f:
-        write_result_group(f.create_group("result"), result)
-    tmp.rename(folder / f"seed_{seed}.h5")
+from seed_noise import _seeds, save_seed  # noqa: E402  (seed_noise's seed syntax and cache format)
 
 
 def cpu_s(result) -> float:
@@ -59,7 +47,7 @@ def on_dask(preset: str, seeds: list[int], workers: int, folder: Path) -> None:
             result = future.result()
             print(f"{preset} seed {seed} on a Dask worker: CPU {cpu_s(result):.0f} s, engine wall "
                   f"{result.provenance.wall_time:.0f} s, {time.time() - start:.0f} s since submission", flush=True)
-            save(folder, seed, result)
+            save_seed(folder, seed, result)
     finally:
         executor.shutdown()
 
@@ -76,7 +64,7 @@ def on_threads(preset: str, seeds: list[int], threads: int, folder: Path) -> Non
         stages = {k: round(v) for k, v in result.provenance.extra.get("stage_cpu", {}).items()}
         print(f"{preset} seed {seed} on {threads} thread{'s' if threads > 1 else ''}: wall {time.time() - start:.0f} s, CPU {cpu_s(result):.0f} s; "
               f"CPU by stage {stages}", flush=True)
-        save(folder, seed, result)
+        save_seed(folder, seed, result)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -117,20 +117,26 @@ def print_variance_split(label: str, results: list) -> None:
               f"of the variance {share:.0%}")
 
 
-def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | None = None) -> int:
-    """One simulation, saved whole to ``folder/seed_<seed>.h5`` (written aside, then renamed)."""
+def save_seed(folder: Path, seed: int, result) -> None:
+    """``result`` whole into ``folder/seed_<seed>.h5``, written aside, then renamed (the cache's format)."""
     import h5py
 
-    from calibrax import get_manager
     from calibrax.core.running.store import write_result_group
 
-    spec = _spec(args, seed, changes)
-    with tempfile.TemporaryDirectory() as work:
-        result = get_manager().create("simulator", args.simulator).simulate(spec, Path(work))
     tmp = folder / f".seed_{seed}.h5.tmp"
     with h5py.File(tmp, "w") as f:
         write_result_group(f.create_group("result"), result)
     tmp.rename(folder / f"seed_{seed}.h5")
+
+
+def run_seed(args: argparse.Namespace, seed: int, folder: Path, changes: dict | None = None) -> int:
+    """One simulation, saved whole to ``folder/seed_<seed>.h5`` (``save_seed``)."""
+    from calibrax import get_manager
+
+    spec = _spec(args, seed, changes)
+    with tempfile.TemporaryDirectory() as work:
+        result = get_manager().create("simulator", args.simulator).simulate(spec, Path(work))
+    save_seed(folder, seed, result)
     return seed
 
 

@@ -42,8 +42,8 @@ if TYPE_CHECKING:
     from calibrax.core.search.records import PointRecord
 
 #: CPU-seconds per test on one core (docs/how-to/choose-a-preset.md#what-a-test-costs): ``tiny``
-#: about 70 s, ``quick`` about 250 s, ``converged`` 2 524 s (the median of 5 seeds on one thread,
-#: both cores busy: docs/explanation/sector.md#the-converged-preset), ``paper`` about 700 times the former ``quick``'s 116 s
+#: about 70 s, ``quick`` about 250 s, ``converged`` 2 524 s (the median of its first 7 seeds on one
+#: thread, both cores busy; 10 give 2 532: docs/explanation/sector.md#the-converged-preset), ``paper`` about 700 times the former ``quick``'s 116 s
 NOMINAL_COST_S = {"tiny": 70.0, "quick": 250.0, "converged": 2524.0, "paper": 81_200.0}
 ENTRY_KEYS = {"preset": "a fidelity preset name", "cost": "CPU-seconds per simulation (> 0)",
               "initial": "points of the initial design at this fidelity (integer ≥ 0)"}
