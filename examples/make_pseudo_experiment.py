@@ -32,7 +32,7 @@ EFFECTS = {"wall_friction": ("geometry", "wall_friction"), "sigma_log": ("size_d
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--simulator", default="numba_dem")
-    p.add_argument("--preset", default="quick", help="fidelity preset: paper | quick | tiny")
+    p.add_argument("--preset", default="quick", help="fidelity preset: paper | converged | quick | tiny")
     p.add_argument("--procedure", default="paper", help="procedure preset: paper | astm_d7891")
     p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                    help="a material field (repeatable), e.g. youngs_modulus=2e10")
@@ -41,6 +41,9 @@ def main(argv: list[str] | None = None) -> int:
                    help=f"an effect to switch on (repeatable): {', '.join(EFFECTS)}")
     p.add_argument("--replicates", type=int, default=3)
     p.add_argument("--workers", type=int, default=1, help="replicates run at once")
+    p.add_argument("--threads", type=int, default=None,
+                   help="numerics.threads of each replicate (default: the preset's); converged on 2 cores: "
+                        "--threads 2 --workers 1")
     p.add_argument("--seed", type=int, default=EXPERIMENT_SEED_BASE + 1000,
                    help=f"first replicate's seed, ≥ {EXPERIMENT_SEED_BASE} (campaigns never use those)")
     p.add_argument("-o", "--output", type=Path, required=True, help="path and stem of the files to write")
@@ -52,6 +55,10 @@ def main(argv: list[str] | None = None) -> int:
         key, _, value = item.partition("=")
         material[key] = float(value)
     changes: dict[str, dict] = {"material": material, "geometry": {"wall_friction": args.wall_friction}}
+    if args.threads is not None:
+        if args.threads < 1:
+            p.error(f"--threads must be ≥ 1, got {args.threads}")
+        changes["numerics"] = {"threads": args.threads}
     for item in args.effect:
         key, _, value = item.partition("=")
         if key not in EFFECTS:
