@@ -43,6 +43,27 @@ def test_an_unconstrained_parameter_is_said_to_be_so_and_the_constrained_one_is_
     assert text.startswith("E anywhere") and "μs = " in text
 
 
+def test_a_parameter_bounded_from_one_side_is_said_to_be_so():
+    """A distance that saturates above μs = 0.34 (u = 0.3, as the tiny cell's features do) and rises
+    below it (the threshold 3 crossed at u = 0.2): μs is not constrained, but the test rules out
+    its low end, and the statement says which side; E stays "anywhere"."""
+    def shelf(x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        clean = 30.0 * np.clip(0.3 - x[:, 1], 0.0, None)
+        return np.abs(clean + 0.5 * rng.standard_normal(len(x)))
+
+    model, x, y = _fit(shelf)
+    answer = answer_from_model(model, SPACE, THRESHOLD, 0.95, len(y))
+    assert answer.constrained == {"youngs_modulus": False, "sliding_friction": False}
+    assert answer.ruled_out["sliding_friction"] == (True, False)
+    assert answer.ruled_out["youngs_modulus"] == (False, False)
+    lo, hi = answer.ranges["sliding_friction"]
+    assert 0.18 < lo < 0.34 and hi > 0.85
+    text = answer.statement()
+    assert f"μs ≥ {lo:.3g}" in text and "rules out lower values, not higher ones" in text
+    assert "E anywhere in 5 GPa to 50 GPa: the test does not constrain it" in text
+    assert Answer.from_dict(answer.to_dict()) == answer
+
+
 def test_the_recommendation_is_the_models_minimum_not_the_luckiest_seed():
     """One evaluation on the valley's flank (mean d 4.5, outside the noise) drew a lucky seed
     (d = 0.05, below every other): the observed best is there, the recommendation stays in the

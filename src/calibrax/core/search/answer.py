@@ -14,7 +14,10 @@ reads the Kriging model instead:
   them, as history matching's not-ruled-out-yet region does;
 * a parameter is **constrained** when the region's projection on it covers less than
   :data:`UNCONSTRAINED_SHARE` of its searched range (unit-cube, i.e. log, scale where the parameter
-  is log-scaled); otherwise the answer says the test does not constrain it.
+  is log-scaled); otherwise the answer says the test does not constrain it, and, where the region
+  stops at least :data:`ONE_SIDED_SHARE` short of one end of the range, which side the test rules
+  out ("μs ≥ 0.2: the test rules out lower values, not higher ones"): a coarse cell whose features
+  saturate bounds a parameter from one side only (docs/explanation/answer.md).
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ from calibrax.core.search.parameters import DISPLAY, ParameterSpace
 #: a parameter whose plausible values span at least this share of its searched range (unit cube) is
 #: reported as not constrained by the test
 UNCONSTRAINED_SHARE = 0.8
+#: an unconstrained parameter's plausible values that stop at least this share of its searched range
+#: (unit cube) short of one end are reported as bounded on that side
+ONE_SIDED_SHARE = 0.1
 #: the region's lower bound: posterior mean minus this many posterior s.d.
 REGION_SIGMAS = 2.0
 #: scrambled Sobol points over the box on which the region and the recommendation are evaluated
@@ -58,6 +64,9 @@ class Answer:
         ranges: {name: (low, high)} of the plausible region's projection; empty when no point of
             the box is plausible.
         constrained: {name: whether the test constrains it} (False for every name when empty).
+        ruled_out: {name: (below, above)}: whether the region stops at least :data:`ONE_SIDED_SHARE`
+            of the range short of its low and its high end (unit cube); empty: neither (stores
+            written before it).
         region_share: share of the box that is plausible, in [0, 1].
         n_points: finished points the model was fitted on.
     """
@@ -72,6 +81,7 @@ class Answer:
     region_share: float
     n_points: int
     bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    ruled_out: dict[str, tuple[bool, bool]] = field(default_factory=dict)
 
     def statement(self) -> str:
         """"μs = 0.33 (plausible 0.29–0.38); E anywhere in 5–50 GPa: the test does not constrain it."."""
@@ -89,10 +99,22 @@ class Answer:
             if self.constrained[name]:
                 parts.append(f"{_symbol(name)} = {_show(name, value)} (plausible {_show(name, lo)} to {_show(name, hi)})")
             else:
-                blo, bhi = self.bounds.get(name, (lo, hi))
-                parts.append(f"{_symbol(name)} anywhere in {_show(name, blo)} to {_show(name, bhi)}: "
-                             "the test does not constrain it")
+                parts.append(self._unconstrained(name, lo, hi))
         return "; ".join(parts) + "."
+
+    def _unconstrained(self, name: str, lo: float, hi: float) -> str:
+        """What the answer says of a parameter the test does not constrain: the side it rules out,
+        if one, else the searched range."""
+        below, above = self.ruled_out.get(name, (False, False))
+        sym, low, high = _symbol(name), _show(name, lo), _show(name, hi)
+        if below and not above:
+            return (f"{sym} ≥ {low} (plausible {low} to {high}): the test rules out lower values, not "
+                    "higher ones")
+        if above and not below:
+            return (f"{sym} ≤ {high} (plausible {low} to {high}): the test rules out higher values, not "
+                    "lower ones")
+        blo, bhi = self.bounds.get(name, (lo, hi))
+        return f"{sym} anywhere in {_show(name, blo)} to {_show(name, bhi)}: the test does not constrain it"
 
     def summary(self) -> str:
         """The statement plus the recommendation's predicted distance and the region's size."""
@@ -111,6 +133,7 @@ class Answer:
         d = asdict(self)
         d["ranges"] = {k: list(v) for k, v in self.ranges.items()}
         d["bounds"] = {k: list(v) for k, v in self.bounds.items()}
+        d["ruled_out"] = {k: list(v) for k, v in self.ruled_out.items()}
         return d
 
     @classmethod
@@ -120,7 +143,8 @@ class Answer:
                    ranges={k: (float(v[0]), float(v[1])) for k, v in d["ranges"].items()},
                    constrained={k: bool(v) for k, v in d["constrained"].items()},
                    region_share=float(d["region_share"]), n_points=int(d["n_points"]),
-                   bounds={k: (float(v[0]), float(v[1])) for k, v in d.get("bounds", {}).items()})
+                   bounds={k: (float(v[0]), float(v[1])) for k, v in d.get("bounds", {}).items()},
+                   ruled_out={k: (bool(v[0]), bool(v[1])) for k, v in d.get("ruled_out", {}).items()})
 
 
 def grid(dim: int, n: int = GRID_POINTS, seed: int = 0) -> np.ndarray:
@@ -163,15 +187,16 @@ def answer_from_model(model, space: ParameterSpace, threshold: float, rate: floa
     names = space.names
     params = space.as_dict(space.from_unit(best_u.reshape(1, -1))[0])
     bounds = {p.name: (float(p.low), float(p.high)) for p in space.parameters}
-    ranges, constrained = {}, {}
+    ranges, constrained, ruled_out = {}, {}, {}
     if inside.any():
         sub = cand[inside]
         nat = space.from_unit(sub)
         for j, name in enumerate(names):
             ranges[name] = (float(nat[:, j].min()), float(nat[:, j].max()))
             constrained[name] = bool(sub[:, j].max() - sub[:, j].min() < UNCONSTRAINED_SHARE)
+            ruled_out[name] = (bool(sub[:, j].min() >= ONE_SIDED_SHARE), bool(sub[:, j].max() <= 1.0 - ONE_SIDED_SHARE))
     else:
         constrained = {name: False for name in names}
     return Answer(params=params, predicted=float(pred[0]), predicted_sd=float(pred_sd[0]), threshold=float(threshold),
                   rate=float(rate), ranges=ranges, constrained=constrained, region_share=float(inside.mean()),
-                  n_points=int(n_points), bounds=bounds)
+                  n_points=int(n_points), bounds=bounds, ruled_out=ruled_out)
