@@ -75,3 +75,11 @@ def test_the_statement_says_when_the_data_do_not_constrain_the_parameters():
     nowhere = _identifiability(_data(6), _answer({}, 0.0))
     assert "With 6 finished points the surrogate is rough" in nowhere and "about 20 for 2 parameters" in nowhere
     assert "cannot reach" in _identifiability(_data(30), _answer({}, 0.0))
+    from dataclasses import replace
+
+    shelf = {"youngs_modulus": (5e9, 5e10), "sliding_friction": (0.2, 0.9)}
+    one_sided = replace(_answer(shelf, 0.87), constrained={"youngs_modulus": False, "sliding_friction": False},
+                        ruled_out={"youngs_modulus": (False, False), "sliding_friction": (True, False)})
+    text = _identifiability(_data(6), one_sided)
+    assert "μs ≥ 0.2 (plausible 0.2 to 0.9): the test rules out lower values, not higher ones" in text
+    assert "bound the parameters from one side at most" in text and "do not constrain the parameters" not in text

@@ -323,7 +323,9 @@ def _identifiability(data: CampaignData, answer) -> str:
         return text
     if answer.region_share >= 0.5:
         n_sims = sum(1 for p in data.done for s in getattr(p.record, "sims", []) if s.status == Status.DONE) or n_done
-        return text + (f" The data do not constrain the parameters: with {n_done} points ({n_sims} simulations)"
+        one_sided = any(any(sides) for sides in answer.ruled_out.values())
+        head = "bound the parameters from one side at most" if one_sided else "do not constrain the parameters"
+        return text + (f" The data {head}: with {n_done} points ({n_sims} simulations)"
                        f"{_cell_words(data)} the experiment's replicate "
                        "spread and one simulation's seed noise leave most of the box as likely as the truth. More "
                        "replicates in the experiment, more seeds per point (seeds_per_point) or a less noisy "
