@@ -283,14 +283,34 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
                 f"none within the noise threshold d = {limit:.2g}")
             ax.set_title(f"{title} ({line}; ★ last batch; ✕ failed)", fontsize=9)
     else:
-        axes[0].plot(nat0, mean, "k-")
-        axes[0].fill_between(nat0, mean - 2 * std, mean + 2 * std, alpha=0.3)
-        axes[0].plot([scaled(p0.name, p.record.natural[0]) for p in done], [p.distance for p in done], "o")
+        ax = axes[0]
+        ax.plot(nat0, mean, "k-", label="predicted distance")
+        ax.fill_between(nat0, mean - 2 * std, mean + 2 * std, alpha=0.3, label="± 2 s.d.")
+        ax.plot([scaled(p0.name, p.record.natural[0]) for p in done], [p.distance for p in done], "o",
+                label="simulated points")
+        ax.axhline(limit, color="tab:orange", ls="--", label=f"noise threshold d = {limit:.2g}")
+        ruled_out = plausible > 0  # shade what the model rules out: m − 2 s above the threshold
+        if ruled_out.any():
+            ax.fill_between(nat0, 0, 1, where=ruled_out, transform=ax.get_xaxis_transform(), color="grey",
+                            alpha=0.15, label="ruled out")
+        rec = scaled(p0.name, list(answer.params.values())[0])
+        ax.axvline(rec, color="gold", lw=2, label="recommendation")
+        known = data.experiment.material if data.experiment is not None else {}
+        if p0.name in known:
+            ax.axvline(scaled(p0.name, known[p0.name]), color="magenta", ls=":", lw=2,
+                       label="truth (the pseudo-experiment's)")
+        ax.set_ylabel("distance d")
+        ax.set_title("predicted distance (grey: ruled out)", fontsize=9)
         axes[1].plot(nat0, std)
-        for ax in axes:
-            ax.set_xlabel(label(p0.name))
-    if d2 == 2:
-        fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, frameon=False)
+        axes[1].set_ylabel("prediction s.d.")
+        axes[1].set_title("prediction s.d.", fontsize=9)
+        for a in axes:
+            a.set_xlabel(label(p0.name))
+            if p0.log:
+                a.set_xscale("log")
+    if d2 == 2 or data.space.dim == 1:
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2 if d2 == 2 else 4, fontsize=8,
+                   frameon=False)
     fig.suptitle("Kriging surrogate of the distance to the experiment")
     fig.tight_layout(rect=(0, 0.06, 1, 1))  # room for the legend under the panels
     return save_figure(fig, folder, "surrogate", layout=False), statement
