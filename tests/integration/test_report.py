@@ -114,3 +114,19 @@ def test_single_file_report_opens_alone_in_a_real_browser(tmp_path):
     default = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "--single-file")
     assert default.returncode == 0 and (tmp_path / "runs/double.report.html").is_file()
     assert not (tmp_path / "runs/double.report").exists()
+
+
+def test_report_of_a_one_parameter_campaign(tmp_path):
+    """The quickstart calibrates μs alone: its report builds every figure, the 1-D surrogate figure
+    with the threshold and the ruled-out region (issue 51)."""
+    path = write_double_campaign(tmp_path, parameters={"sliding_friction": {"low": 0.1, "high": 0.9}},
+                                 budget={"initial": 4, "iterations": 1})
+    proc = calibrax_cli("run", str(path), "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "report"
+    rep = calibrax_cli("report", str(tmp_path / "runs/double.h5"), "-o", str(out))
+    assert rep.returncode == 0, rep.stderr
+    _, summary = check_report(out)
+    assert "μs" in summary.split("**Answer.** ")[1] and "E " not in summary.split("**Answer.** ")[1].split(".")[0]
+    svg = (out / "surrogate.svg").read_text()
+    assert "noise threshold d = " in svg and "recommendation" in svg
