@@ -236,10 +236,11 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
     plausible = latent - REGION_SIGMAS * latent_sd - model.to_model_units(limit)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
     last_batch = max(p.record.batch for p in data.points)
+    known = data.experiment.material if data.experiment is not None else {}
+    rec = list(answer.params.values())
     if d2 == 2:
         p1 = data.space.parameters[1]
         nat1 = scaled(p1.name, p1.from_unit(u))
-        known = data.experiment.material if data.experiment is not None else {}
         truth = (known[p0.name], known[p1.name]) if p0.name in known and p1.name in known else None
         for ax, z, title in ((axes[0], mean, "predicted distance"), (axes[1], std, "prediction s.d.")):
             cs = ax.contourf(nat0, nat1, z.reshape(grid, grid), levels=20, cmap="viridis")
@@ -263,7 +264,6 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
             best = data.best.record.natural
             ax.plot(scaled(p0.name, best[0]), scaled(p1.name, best[1]), "D", mfc="none", mec="tab:red", mew=2,
                     ms=12, label=f"best observed point {data.best.id} (one draw of the noise)")
-            rec = list(answer.params.values())
             ax.plot(scaled(p0.name, rec[0]), scaled(p1.name, rec[1]), "*", color="gold", mec="k", ms=16,
                     label="recommendation (minimum of the model's mean); hatched: ruled out, "
                           "orange dashes: edge of the plausible region")
@@ -293,9 +293,7 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
         if ruled_out.any():
             ax.fill_between(nat0, 0, 1, where=ruled_out, transform=ax.get_xaxis_transform(), color="grey",
                             alpha=0.15, label="ruled out")
-        rec = scaled(p0.name, list(answer.params.values())[0])
-        ax.axvline(rec, color="gold", lw=2, label="recommendation")
-        known = data.experiment.material if data.experiment is not None else {}
+        ax.axvline(scaled(p0.name, rec[0]), color="gold", lw=2, label="recommendation")
         if p0.name in known:
             ax.axvline(scaled(p0.name, known[p0.name]), color="magenta", ls=":", lw=2,
                        label="truth (the pseudo-experiment's)")
@@ -308,9 +306,8 @@ def surrogate_maps(data: CampaignData, folder: Path, grid: int = 70) -> tuple[li
             a.set_xlabel(label(p0.name))
             if p0.log:
                 a.set_xscale("log")
-    if d2 == 2 or data.space.dim == 1:
-        fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2 if d2 == 2 else 4, fontsize=8,
-                   frameon=False)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2 if d2 == 2 else 4, fontsize=8,
+               frameon=False)
     fig.suptitle("Kriging surrogate of the distance to the experiment")
     fig.tight_layout(rect=(0, 0.06, 1, 1))  # room for the legend under the panels
     return save_figure(fig, folder, "surrogate", layout=False), statement

@@ -193,8 +193,9 @@ def answer_from_model(model, space: ParameterSpace, threshold: float, rate: floa
         nat = space.from_unit(sub)
         for j, name in enumerate(names):
             ranges[name] = (float(nat[:, j].min()), float(nat[:, j].max()))
-            constrained[name] = bool(sub[:, j].max() - sub[:, j].min() < UNCONSTRAINED_SHARE)
-            ruled_out[name] = (bool(sub[:, j].min() >= ONE_SIDED_SHARE), bool(sub[:, j].max() <= 1.0 - ONE_SIDED_SHARE))
+            low_u, high_u = float(sub[:, j].min()), float(sub[:, j].max())
+            constrained[name] = high_u - low_u < UNCONSTRAINED_SHARE
+            ruled_out[name] = (low_u >= ONE_SIDED_SHARE, high_u <= 1.0 - ONE_SIDED_SHARE)
     else:
         constrained = {name: False for name in names}
     return Answer(params=params, predicted=float(pred[0]), predicted_sd=float(pred_sd[0]), threshold=float(threshold),
