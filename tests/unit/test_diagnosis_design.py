@@ -11,7 +11,7 @@ from calibrax import ShearCellSpec
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.diagnosis import effects_by_name
-from calibrax.diagnosis.design import MIN_HALF_WIDTH, Box, Budget, design_points
+from calibrax.diagnosis.design import MIN_HALF_WIDTH, TARGET_RUNS, Box, Budget, design_points
 from calibrax.diagnosis.effects import TruncatedNormalPrior, UniformPrior
 from calibrax.diagnosis.gap import FeatureGap, feature_gaps, parse_groups
 from calibrax.errors import ConfigError
@@ -83,6 +83,25 @@ def test_the_design_spends_the_budget_as_stated_with_distinct_seeds() -> None:
         values = [p.effect_values[param.name] for p in mine]
         assert min(values) >= param.off and max(values) <= param.high and np.ptp(values) > 0.5 * (param.high - param.off)
     assert Budget.for_total(20, 3) == Budget(3, 3, 3, 3)
+
+
+def test_a_design_across_fidelities_runs_its_replicates_at_the_target_and_the_rest_cheap() -> None:
+    """The target's replicates come first (the gap is measured on design point 0), with seeds of
+    their own; every other point runs at the cheap fidelity, with the seeds it has at one fidelity."""
+    box = Box.around(SPACE, {"youngs_modulus": 2e10, "sliding_friction": 0.35})
+    effects = effects_by_name()
+    budget = Budget.for_total(36, len(effects), TARGET_RUNS)
+    k = len(effects)
+    assert budget == Budget(4, 4, (36 - 8 - 2 * TARGET_RUNS) // k, TARGET_RUNS, TARGET_RUNS)
+    assert 36 - k < budget.total(k) <= 36
+    assert Budget.across_fidelities().total(3) == Budget().total(3)
+    across = design_points(box, effects, budget, cheap="tiny")
+    alone = design_points(box, effects, budget)
+    assert across[0].label == "calibrated" and across[0].fidelity == "" and len(across[0].seeds) == TARGET_RUNS
+    assert all(p.fidelity == "tiny" for p in across[1:]) and across[1].label == "calibrated at tiny"
+    assert [p.seeds for p in across[1:]] == [p.seeds for p in alone]
+    seeds = [s for p in across for s in p.seeds]
+    assert len(seeds) == len(set(seeds))
 
 
 def test_feature_gaps_never_take_the_experiments_spread_below_the_seeds() -> None:

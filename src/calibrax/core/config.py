@@ -148,10 +148,12 @@ def _check_same_preshear(experiment: Experiment, path: Path, spec: ShearCellSpec
 
 def search_identity(resolved: dict[str, Any], experiment: Experiment | None) -> str:
     """Hash of what defines a search: the resolved config without budget, executor, paths, names,
-    the surrogate's options and the enqueued or warm-start points (stored points are data whatever
-    proposed them), and the experiment by its data (:func:`~calibrax.core.data.experiment.experiment_fingerprint`)."""
+    the surrogate's options, the enqueued or warm-start points (stored points are data whatever
+    proposed them) and the cheaper fidelities' cells (made from ``cell`` and ``fidelities``, which
+    the hash holds; recorded for ``calibrax diagnose``), and the experiment by its data (:func:`~calibrax.core.data.experiment.experiment_fingerprint`)."""
     keep = {k: v for k, v in resolved.items() if k not in ("budget", "executor", "store", "workdir", "description",
-                                                           "name", "surrogate", "enqueue", "warm_start", "experiment")}
+                                                           "name", "surrogate", "enqueue", "warm_start", "experiment",
+                                                           "fidelity_cells")}
     keep = without_added_defaults(keep)
     keep["experiment_data"] = experiment_fingerprint(experiment) if experiment is not None else None
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
@@ -361,7 +363,8 @@ def parse_config(raw: Any, base: Path, source: Path | None = None) -> CampaignCo
         "seed": seed, "seeds_per_point": seeds_per_point, "surrogate": surrogate,
         **({"enqueue": [list(row) for row in enqueue]} if enqueue else {}),
         **({"warm_start": str(warm_start)} if warm_start else {}),
-        **({"fidelities": [f.to_dict() for f in fidelities]} if fidelities else {}),
+        **({"fidelities": [f.to_dict() for f in fidelities],
+            "fidelity_cells": {f.name: f.spec.to_dict() for f in fidelities[:-1]}} if fidelities else {}),
     }
     if warm_start is not None:
         from calibrax.core.warm_start import check_warm_start

@@ -14,6 +14,7 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
                  fit_on: str = "locus,density", seed: int = 0, output: Path | None = None, workers: int | None = None) -> int:
     """The command's body; every input is checked before anything runs or is written."""
     from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
+    from calibrax.diagnosis.design import TARGET_RUNS
     from calibrax.diagnosis.report import write_diagnosis_report
     from calibrax.core.registry import get_manager
 
@@ -35,7 +36,10 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
         raise ConfigError("--budget", f"must be ≥ {MIN_BUDGET} simulations, got {budget}")
     # the effects' split needs the usable effects: count them as diagnose() will
     usable = [e for e in candidates if e.capability in capabilities]
-    plan = Budget.for_total(budget, max(len(usable), 1)) if budget is not None else Budget()
+    # across fidelities a few replicates and the confirmations run at the target, the rest at the cheap level
+    target_runs = TARGET_RUNS if calibrated.cheap else 0
+    default = Budget.across_fidelities() if calibrated.cheap else Budget()
+    plan = Budget.for_total(budget, max(len(usable), 1), target_runs) if budget is not None else default
     if budget is not None and plan.per_effect < 4:
         raise ConfigError("--budget", f"{budget} simulations leave {plan.per_effect} per effect for "
                                       f"{len(usable)} effects; give at least {plan.total(len(usable)) - plan.per_effect * len(usable) + 4 * len(usable)}")

@@ -23,6 +23,12 @@ MIN_HALF_WIDTH = 0.15
 #: seeds of diagnosis simulations start here: above any campaign's point-indexed seeds in practice,
 #: below calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE as every simulation seed is
 SEED_BASE = 700_000_000
+#: a diagnosis across fidelities runs this many replicates and as many confirmations at the target:
+#: four tests of the converged cell (2 524 CPU-s each) are 2.8 CPU-hours, which leaves the default
+#: design at tiny (48 tests of 70 CPU-s, 0.9 CPU-hours) within issue 51's 4 CPU-hours
+TARGET_RUNS = 2
+#: the target replicates' seeds: above the design's, below the confirmations' (``+ 900``)
+TARGET_SEED_OFFSET = 800
 
 
 @dataclass(frozen=True)
@@ -38,25 +44,40 @@ class Budget:
             (:data:`calibrax.diagnosis.verdict.MAX_TRIED` candidates at most), so a diagnosis
             runs :meth:`total` simulations when the top candidate holds and up to ``confirm``
             more otherwise.
+
+        target_replicates: in a diagnosis across fidelities, seeds at the calibrated point at the
+            target fidelity (the "before" there; ``replicates`` then run at the cheap one, like the
+            rest of the design, and ``confirm`` at the target); 0 at one fidelity.
     """
 
     replicates: int = 4
     baseline: int = 4
     per_effect: int = 8
     confirm: int = 4
+    target_replicates: int = 0
 
     def total(self, n_effects: int) -> int:
-        return self.replicates + self.baseline + n_effects * self.per_effect + self.confirm
+        return self.replicates + self.baseline + n_effects * self.per_effect + self.confirm + self.target_replicates
 
     @classmethod
-    def for_total(cls, total: int, n_effects: int) -> "Budget":
+    def for_total(cls, total: int, n_effects: int, target_runs: int = 0) -> "Budget":
         """The split of ``total`` simulations: 4 replicates and 4 confirmations (fewer below 24
-        simulations), 4 baseline points, the rest shared evenly by the candidates."""
+        simulations), 4 baseline points, the rest shared evenly by the candidates. With
+        ``target_runs`` (a diagnosis across fidelities) that many replicates and as many
+        confirmations run at the target, the rest at the cheap fidelity."""
         small = total < 24
         replicates = confirm = 3 if small else 4
         baseline = 3 if small else 4
-        per_effect = (total - replicates - confirm - baseline) // max(n_effects, 1)
-        return cls(replicates, baseline, per_effect, confirm)
+        if target_runs:
+            confirm = target_runs
+        per_effect = (total - replicates - confirm - baseline - target_runs) // max(n_effects, 1)
+        return cls(replicates, baseline, per_effect, confirm, target_runs)
+
+    @classmethod
+    def across_fidelities(cls) -> "Budget":
+        """The default budget of a diagnosis across fidelities: the default design at the cheap
+        fidelity, :data:`TARGET_RUNS` replicates and as many confirmations at the target."""
+        return cls(confirm=TARGET_RUNS, target_replicates=TARGET_RUNS)
 
 
 @dataclass(frozen=True)
@@ -104,13 +125,16 @@ class Box:
 @dataclass(frozen=True)
 class DesignPoint:
     """One design point: a label, the calibrated parameters and the effect parameters (natural
-    units; effect parameters absent are off) and the seeds it runs."""
+    units; effect parameters absent are off), the seeds it runs and the fidelity it runs at (""
+    the campaign's cell, the target; a cheaper fidelity's preset name in a diagnosis across
+    fidelities)."""
 
     label: str
     params: dict[str, float]
     effect: str | None
     effect_values: dict[str, float]
     seeds: tuple[int, ...]
+    fidelity: str = ""
 
 
 def _sobol(dim: int, n: int, seed: int) -> np.ndarray:
@@ -123,17 +147,27 @@ def _sobol(dim: int, n: int, seed: int) -> np.ndarray:
         return qmc.Sobol(dim, scramble=True, seed=seed).random(n)
 
 
-def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0) -> list[DesignPoint]:
-    """The diagnosis's design (see the module docstring); every simulation has its own seed."""
+def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0, cheap: str = "") -> list[DesignPoint]:
+    """The diagnosis's design (see the module docstring); every simulation has its own seed.
+
+    With ``cheap`` (a cheaper fidelity's name: a diagnosis across fidelities) every point runs at
+    it, and a first point, "calibrated", runs ``budget.target_replicates`` seeds at the target,
+    where the gap is measured."""
     names = box.space.names
+    centre = dict(zip(names, map(float, box.centre)))
     seeds = iter(range(SEED_BASE + 1000 * seed, SEED_BASE + 1000 * seed + 1000))
-    points = [DesignPoint("calibrated", dict(zip(names, map(float, box.centre))), None, {},
-                          tuple(next(seeds) for _ in range(budget.replicates)))]
+    points = []
+    if cheap:
+        first = SEED_BASE + 1000 * seed + TARGET_SEED_OFFSET
+        points.append(DesignPoint("calibrated", centre, None, {}, tuple(range(first, first + budget.target_replicates))))
+    points.append(DesignPoint(f"calibrated at {cheap}" if cheap else "calibrated", centre, None, {},
+                              tuple(next(seeds) for _ in range(budget.replicates)), cheap))
     d = len(names)
     if budget.baseline:
         u = _sobol(d, budget.baseline, seed)
         for k, row in enumerate(box.natural(2.0 * u - 1.0)):
-            points.append(DesignPoint(f"baseline {k + 1}", dict(zip(names, map(float, row))), None, {}, (next(seeds),)))
+            points.append(DesignPoint(f"baseline {k + 1}", dict(zip(names, map(float, row))), None, {}, (next(seeds),),
+                                      cheap))
     for j, effect in enumerate(effects):
         k_eff = len(effect.parameters)
         u = _sobol(d + k_eff, budget.per_effect, seed + 1 + j)
@@ -141,5 +175,5 @@ def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0
         for k in range(budget.per_effect):
             values = {p.name: float(p.off + u[k, d + i] * (p.high - p.off)) for i, p in enumerate(effect.parameters)}
             points.append(DesignPoint(f"{effect.name} {k + 1}", dict(zip(names, map(float, cal[k]))), effect.name,
-                                      values, (next(seeds),)))
+                                      values, (next(seeds),), cheap))
     return points

@@ -47,6 +47,15 @@ def shrinkage_text(d: Diagnosis) -> str:
     return text + f": it shrinks by {_fmt(100 * d.shrinkage)} %."
 
 
+def _cost_by_fidelity(d: Diagnosis) -> str:
+    """" By fidelity: tiny 48 simulations, 52 CPU-min; converged 4, 168 CPU-min." ("" at one)."""
+    rows = d.simulations.get("by_fidelity") or {}
+    if not rows:
+        return ""
+    return " By fidelity: " + "; ".join(f"{name} {row['simulations']} simulations, {row['engine_seconds'] / 60:.0f} "
+                                        "CPU-min" for name, row in rows.items()) + "."
+
+
 def markdown(d: Diagnosis) -> str:
     """The diagnosis's summary."""
     lines = [f"# Diagnosis of the sim-to-real gap ({d.backend})", "", f"**Verdict.** {headline(d)}", "",
@@ -57,7 +66,7 @@ def markdown(d: Diagnosis) -> str:
              f"Cost: {d.simulations['total']} simulations ({d.simulations['design']} in the design, "
              f"{d.simulations['design_failed']} of them failed; {d.simulations['confirm']} to confirm), "
              f"{d.simulations.get('engine_seconds', 0) / 60:.0f} min of engine time in all, "
-             f"{d.wall_time / 60:.1f} min of wall time in this run.", "",
+             f"{d.wall_time / 60:.1f} min of wall time in this run." + _cost_by_fidelity(d), "",
              "## 1. Where the gap lies (calibrated point, replicate seeds)", "", *_metric_line(d),
              *_gap_table(d.before, d.judge_on), "",
              "## 2. Which effect", "",

@@ -66,6 +66,9 @@ class Calibrated:
         plausible: {name: (low, high)} of its plausible region (empty: none known).
         metric_gap: the campaign's own verdict at its answer, {``predicted``: d, ``predicted_sd``,
             ``threshold``: the metric's noise threshold} (empty: not known).
+        target: a multi-fidelity campaign's target fidelity, the one ``spec`` is ("" at one fidelity).
+        cheap: a multi-fidelity campaign's cheapest fidelity and its cell, where the diagnosis runs
+            its design (None: every simulation at ``spec``).
     """
 
     simulator: str
@@ -75,6 +78,16 @@ class Calibrated:
     centre: dict[str, float]
     plausible: dict[str, tuple[float, float]] = field(default_factory=dict)
     metric_gap: dict[str, float] = field(default_factory=dict)
+    target: str = ""
+    cheap: tuple[str, ShearCellSpec] | None = None
+
+    def cell(self, fidelity: str) -> ShearCellSpec:
+        """The cell a design point of ``fidelity`` runs ("": the target's, the campaign's own)."""
+        return self.cheap[1] if fidelity and self.cheap and fidelity == self.cheap[0] else self.spec
+
+    def fidelity_name(self, fidelity: str) -> str:
+        """A design point's fidelity in words: its preset's name ("" at one fidelity)."""
+        return fidelity or self.target
 
     @classmethod
     def from_store(cls, path: Path) -> "Calibrated":
@@ -95,8 +108,25 @@ class Calibrated:
         space = ParameterSpace.from_config(cfg["parameters"])
         plausible = {k: tuple(v) for k, v in answer.ranges.items()}
         gap = {"predicted": answer.predicted, "predicted_sd": answer.predicted_sd, "threshold": answer.threshold}
+        target, cheap = _fidelities(cfg, path)
         return cls(cfg["simulator"], ShearCellSpec.from_dict(cfg["cell"]), space, experiment, dict(answer.params),
-                   plausible, gap)
+                   plausible, gap, target, cheap)
+
+
+def _fidelities(cfg: dict[str, Any], path: Path) -> tuple[str, tuple[str, ShearCellSpec] | None]:
+    """A campaign's target fidelity and its cheapest one with its cell (``"", None`` at one
+    fidelity); a multi-fidelity store written before the cells were recorded is diagnosed at its
+    target alone, and the log says so."""
+    fidelities = cfg.get("fidelities") or []
+    if not fidelities:
+        return "", None
+    target, cheapest = fidelities[-1]["preset"], fidelities[0]["preset"]
+    cells = cfg.get("fidelity_cells") or {}
+    if cheapest not in cells:
+        log.warning("diagnose: %s records no cell for its cheap fidelity %s (a store written before calibrax "
+                    "recorded them): every simulation of the diagnosis runs at the target, %s", path, cheapest, target)
+        return target, None
+    return target, (cheapest, ShearCellSpec.from_dict(cells[cheapest]))
 
 
 @dataclass
@@ -217,7 +247,7 @@ def usable_effects(effects: list[Effect], capabilities: frozenset[str], backend:
 
 
 def design_case(calibrated: Calibrated, backend: str, point: DesignPoint, effects: dict[str, Effect]) -> StudyCase:
-    spec = point_spec(calibrated.spec, point.params, 0)
+    spec = point_spec(calibrated.cell(point.fidelity), point.params, 0)
     if point.effect is not None:
         spec = effects[point.effect].apply(spec, point.effect_values)
     coords = dict(point.params, **point.effect_values)
@@ -234,13 +264,14 @@ def stage_progress(stage: str):
 
 
 def _design_arrays(points: list[DesignPoint], features: list[list[dict[str, float]]], box: Box,
-                   params: dict[str, EffectParameter]) -> tuple[np.ndarray, np.ndarray, list[dict[str, float]], list[int]]:
+                   params: dict[str, EffectParameter]
+                   ) -> tuple[np.ndarray, np.ndarray, list[dict[str, float]], list[int], np.ndarray]:
     """Per simulated test (``features[i]``: those of design point i's seeds): the calibrated
     parameters on [−1, 1] over the box, shape (n, d), every effect parameter as a fraction of its
-    range (0: off), shape (n, K) in the order of ``params``, its features, and the index of its
-    design point."""
+    range (0: off), shape (n, K) in the order of ``params``, its features, the index of its
+    design point, and whether it ran at the target fidelity, shape (n,) of bool."""
     columns = list(params)
-    unit, eff, feats, which = [], [], [], []
+    unit, eff, feats, which, at_target = [], [], [], [], []
     for i, (pt, point_features) in enumerate(zip(points, features)):
         scaled = box.scaled(np.array([[pt.params[n] for n in box.space.names]]))[0]
         fractions = [float(params[c].scaled(pt.effect_values[c])) if c in pt.effect_values else 0.0 for c in columns]
@@ -249,8 +280,9 @@ def _design_arrays(points: list[DesignPoint], features: list[list[dict[str, floa
             eff.append(fractions)
             feats.append(f)
             which.append(i)
+            at_target.append(not pt.fidelity)
     return (np.array(unit).reshape(len(unit), box.space.dim), np.array(eff, dtype=float).reshape(len(unit), len(columns)),
-            feats, which)
+            feats, which, np.array(at_target, dtype=bool))
 
 
 def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor: Executor, *, backend: str | None = None,
@@ -280,13 +312,17 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
     if capabilities is None:
         capabilities = frozenset(get_manager().create("simulator", backend).capabilities())
     effects, skipped = usable_effects(effects, capabilities, backend, asked)
-    budget = budget or Budget()
+    cheap = calibrated.cheap[0] if calibrated.cheap else ""
+    budget = budget or (Budget.across_fidelities() if cheap else Budget())
+    if cheap and budget.target_replicates < 1:
+        raise ConfigError("--budget", f"a diagnosis across fidelities needs at least one replicate at the target "
+                          f"{calibrated.target} (where the gap is measured); the budget gives none")
     names_seen = [p.name for e in effects for p in e.parameters]
     effect_params = {p.name: p for e in effects for p in e.parameters}
     if len(set(names_seen)) != len(names_seen):
         raise ConfigError("--effects", f"two candidates add a parameter of the same name: {names_seen}")
     box = Box.around(calibrated.space, calibrated.centre, calibrated.plausible)
-    points = design_points(box, effects, budget, seed)
+    points = design_points(box, effects, budget, seed, cheap)
     by_name = {e.name: e for e in effects}
     cases = [design_case(calibrated, backend, p, by_name) for p in points]   # every spec is checked before a file is made
     out = Path(out)
@@ -295,6 +331,10 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
              "candidate's recalibration where the baseline misfits (up to %d candidates, the next only where the "
              "one before is refuted)", len(effects), ", ".join(e.name for e in effects), backend,
              sum(len(p.seeds) for p in points), budget.confirm, MAX_TRIED)
+    if cheap:
+        log.info("diagnose: across fidelities: the design at %s but for %d replicates at the target %s, where the gap "
+                 "is measured and each recalibration confirmed; the emulator reads the target through the shift "
+                 "between them", cheap, budget.target_replicates, calibrated.target)
     try:
         design_store = study_store(out, "design", cases)
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
@@ -329,6 +369,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
     sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(scored.failed),
             "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
+    if cheap:
+        sims["by_fidelity"] = cost_by_fidelity(calibrated, points, outcomes, done)
     stores = {"design": design_store.name, **confirm_stores(final, done["stores"])}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
                        scored.ranking, final, sims, time.monotonic() - started,
@@ -336,6 +378,24 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                        dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
+
+
+def cost_by_fidelity(calibrated: Calibrated, points: list[DesignPoint], outcomes: list[Any],
+                     confirmed: dict[str, Any]) -> dict[str, dict[str, float]]:
+    """{fidelity: {``simulations``, ``engine_seconds``}} of a diagnosis across fidelities: the
+    design's simulations at each, and the confirmations at the target."""
+    out: dict[str, dict[str, float]] = {name: {"simulations": 0, "engine_seconds": 0.0}   # cheapest first
+                                        for name in (calibrated.cheap[0] if calibrated.cheap else "", calibrated.target)
+                                        if name}
+    for point, outcome in zip(points, outcomes):
+        row = out.setdefault(calibrated.fidelity_name(point.fidelity), {"simulations": 0, "engine_seconds": 0.0})
+        row["simulations"] += len(point.seeds)
+        row["engine_seconds"] += sum(r.provenance.wall_time for r in outcome.good)
+    row = out.setdefault(calibrated.target, {"simulations": 0, "engine_seconds": 0.0})
+    row["simulations"] += confirmed["n"]
+    row["engine_seconds"] += confirmed["engine"]
+    return {k: {"simulations": int(v["simulations"]), "engine_seconds": int(round(v["engine_seconds"]))}
+            for k, v in out.items()}
 
 
 def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:
@@ -375,14 +435,18 @@ def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace
     """Rank the candidates on the design's features and measure the gap at the calibrated point
     (design point 0). Numbers only: ``experiment`` holds each replicate's diagnosis features,
     ``features[i]`` those of design point i's finished simulations, ``failed`` counts the rest."""
-    unit, eff, feats, which = _design_arrays(points, features, box, effect_params)
+    unit, eff, feats, which, at_target = _design_arrays(points, features, box, effect_params)
+    if any(p.fidelity for p in points) and not at_target.any():
+        raise DiagnosisError(f"none of the {len(points[0].seeds)} replicates at the target fidelity finished, and the "
+                             "gap is measured there; see the design's failures and run the diagnosis again")
     names = gaps.usable(gaps.candidate_names(experiment), experiment, feats)
     if len(names) < 2:
         raise DiagnosisError(f"only {len(names)} feature(s) in common between the experiment and the simulations "
                              f"({list(names)}); the diagnosis needs at least two")
     rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
     y = np.array([[feats[i][n] for n in names] for i in rows])
-    design = Design(unit[rows], eff[rows], tuple(effect_params), y, names)
+    design = Design(unit[rows], eff[rows], tuple(effect_params), y, names,
+                    at_target[rows] if not at_target.all() else None)
     target = _target(experiment, names)
     try:
         emulator = Emulator.fit(design)
@@ -410,8 +474,7 @@ def recalibration(box: Box, effect: Effect, scored: _Scored, fit_on: tuple[str, 
     if not keep:
         raise DiagnosisError(f"none of the features is in the groups {list(fit_on)} the recalibration is fitted to "
                              f"(features: {list(design.names)}); choose other --fit-on groups")
-    sub = Design(design.unit, design.effects, design.effect_columns, design.features[:, keep],
-                 tuple(design.names[j] for j in keep))
+    sub = design.only(keep)
     sub_target = Target(target.mean[keep], target.sd[keep], target.n)
     space = next(s for s in spaces if s.name == effect.name)
     fit = score_model(sub_target, Emulator.fit(sub), space, seed)

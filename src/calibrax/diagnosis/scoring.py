@@ -101,6 +101,10 @@ class Design:
         effect_columns: the names of those columns.
         features: one row per simulation, shape (N, F), in the order of ``names``.
         names: feature names.
+        at_target: per simulation, whether it ran at the target fidelity, shape (N,) of bool;
+            None for a design at one fidelity (every simulation at the target). A design across
+            two fidelities gives its emulator a shift per feature between them (see
+            :meth:`Emulator.fit`).
     """
 
     unit: np.ndarray
@@ -108,6 +112,17 @@ class Design:
     effect_columns: tuple[str, ...]
     features: np.ndarray
     names: tuple[str, ...]
+    at_target: np.ndarray | None = None
+
+    def only(self, keep: list[int]) -> "Design":
+        """The same simulations with the features of the columns ``keep`` only."""
+        return Design(self.unit, self.effects, self.effect_columns, self.features[:, keep],
+                      tuple(self.names[j] for j in keep), self.at_target)
+
+    @property
+    def two_levels(self) -> bool:
+        """Whether the design holds simulations at both a cheap fidelity and the target."""
+        return self.at_target is not None and bool(np.any(self.at_target)) and not bool(np.all(self.at_target))
 
 
 @dataclass(frozen=True)
@@ -132,6 +147,8 @@ class Emulator:
     d: int
     effect_columns: tuple[str, ...]
     quadratic: bool = False
+    #: whether the basis holds the target fidelity's shift (a design across two fidelities)
+    shifted: bool = False
 
     @classmethod
     def fit(cls, design: Design) -> "Emulator":
@@ -139,13 +156,22 @@ class Emulator:
         too when that predicts the design's left-out simulations better (PRESS, the leave-one-out
         residuals e_i/(1 − h_ii), summed over the features in units of their spread) and leaves
         ``MIN_QUADRATIC_DOF`` residual degrees of freedom: a box the size of the whole
-        parameter range bends (peak τ/σ saturates in μs), a few plausible regions wide it does not."""
-        linear = basis(design.unit, design.effects)
+        parameter range bends (peak τ/σ saturates in μs), a few plausible regions wide it does not.
+
+        A design across two fidelities (:attr:`Design.two_levels`) adds one regressor, the
+        indicator of the target fidelity: each feature at the target is the cheap level's response
+        plus a constant shift, the AR(1) model of Kennedy and O'Hagan (2000) with ρ = 1 and a
+        constant bias, which is all that the target's few simulations at one point (the calibrated
+        one) can identify. The effects' signatures and the response to the calibrated parameters
+        come from the cheap level; :meth:`predict` answers at the target."""
+        shifted = design.two_levels
+        level = design.at_target.astype(float) if shifted else None
+        linear = basis(design.unit, design.effects, shift=level)
         n, p = linear.shape
         if n <= p + 1:
             raise ValueError(f"the design has {n} simulations; its emulator needs more than {p + 1}")
         quadratic = False
-        curved = basis(design.unit, design.effects, quadratic=True)
+        curved = basis(design.unit, design.effects, quadratic=True, shift=level)
         if n - curved.shape[1] >= MIN_QUADRATIC_DOF:
             quadratic = _press(curved, design.features) < _press(linear, design.features)
         phi = curved if quadratic else linear
@@ -159,11 +185,13 @@ class Emulator:
         raw = np.nan_to_num(np.atleast_2d(raw))
         corr = CORRELATION_SHRINKAGE * np.eye(raw.shape[0]) + (1 - CORRELATION_SHRINKAGE) * raw
         np.fill_diagonal(corr, 1.0)
-        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic)
+        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic, shifted)
 
     def predict(self, unit: np.ndarray, effects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Mean features, shape (n, F), and the emulator's relative variance h, shape (n,)."""
-        phi = basis(unit, effects, self.quadratic)
+        """Mean features at the target fidelity, shape (n, F), and the emulator's relative
+        variance h, shape (n,)."""
+        unit = np.atleast_2d(unit)
+        phi = basis(unit, effects, self.quadratic, shift=np.ones(unit.shape[0]) if self.shifted else None)
         h = np.einsum("ij,jk,ik->i", phi, self.gram_inv, phi)
         return phi @ self.coef, np.maximum(h, 0.0)
 
@@ -179,15 +207,19 @@ def _press(phi: np.ndarray, y: np.ndarray) -> float:
     return float(np.sum((loo / np.where(scale > 0, scale, 1.0)) ** 2))
 
 
-def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False) -> np.ndarray:
-    """The regressors [1, u, g, g²], shape (n, 1 + d + 2K), and with ``quadratic`` the squares and
-    products of u too."""
+def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False,
+          shift: np.ndarray | None = None) -> np.ndarray:
+    """The regressors [1, u, g, g²], shape (n, 1 + d + 2K), with ``quadratic`` the squares and
+    products of u too, and with ``shift`` (shape (n,): 1 at the target fidelity, 0 at the cheap
+    one) the target's shift last."""
     unit = np.atleast_2d(unit)
     effects = np.atleast_2d(effects)
     cols = [np.ones((unit.shape[0], 1)), unit, effects, effects ** 2]
     if quadratic:
         d = unit.shape[1]
         cols.append(np.column_stack([unit[:, i] * unit[:, j] for i in range(d) for j in range(i, d)]))
+    if shift is not None:
+        cols.append(np.asarray(shift, dtype=float).reshape(-1, 1))
     return np.hstack(cols)
 
 

@@ -165,8 +165,8 @@ class BaselineTest:
 def baseline_fit(design: Design, target: Target, groups: tuple[str, ...] | None, seed: int = 0) -> BaselineFit:
     """Refit the model without any effect on the ``groups``' features (None: every feature)."""
     keep = [j for j, n in enumerate(design.names) if groups is None or gaps.group_of(n) in groups]
-    names = tuple(design.names[j] for j in keep)
-    sub = Design(design.unit, design.effects, design.effect_columns, design.features[:, keep], names)
+    sub = design.only(keep)
+    names = sub.names
     fit = score_model(Target(target.mean[keep], target.sd[keep], target.n), Emulator.fit(sub), None, seed)
     return BaselineFit(names, fit.chi2, fit.dof, np.asarray(fit.z))
 

@@ -1,0 +1,113 @@
+"""``calibrax diagnose`` of a multi-fidelity campaign (``fidelities: [tiny, quick]``) on the
+analytic TEST DOUBLE (core machinery only): the design runs at the cheap level, the gap is
+measured and the recalibration confirmed at the target, and the emulator reads the target through
+the shift between the levels. The double's ``tiny`` cell is biased against its ``quick`` one (C
+−83 Pa, tan AIF −0.056, tests/doubles/analytic_simulator.py), and the pseudo-experiment, with a
+hidden size distribution (σ_log 0.3: the bulk density 4.5 % higher, the locus unchanged), is made
+at ``quick``. Read without the shift, the design's tiny locus would stand against quick's as a gap
+of its own, which wall friction or cohesion would be named for.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from calibrax import CampaignStore, ShearCellSpec
+from calibrax.diagnosis.design import TARGET_RUNS
+from tests.conftest import calibrax_cli, double_env
+
+NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
+HIDDEN = ("sigma_log", 0.3)
+
+
+def _with_hidden(spec: ShearCellSpec, value: float) -> ShearCellSpec:
+    """``spec`` with the hidden effect at ``value``, as the diagnosis sets it."""
+    from calibrax.diagnosis import effects_by_name
+
+    return effects_by_name(["size_distribution"])[0].apply(spec, {HIDDEN[0]: value})
+
+
+def _completions(folder: Path) -> int:
+    return sum(len(p.read_text().splitlines()) for p in folder.rglob("completions.log"))
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory) -> Path:
+    """A finished two-fidelity double campaign against a pseudo-experiment made at quick with a
+    hidden size distribution."""
+    import os
+
+    from calibrax.core.data.pseudo import write_pseudo_experiment
+
+    folder = tmp_path_factory.mktemp("diagnose-fidelities")
+    spec = _with_hidden(ShearCellSpec.preset("quick", material={"youngs_modulus": 2e10, "sliding_friction": 0.45}),
+                        HIDDEN[1])
+    os.environ.update(NOISE)
+    try:
+        write_pseudo_experiment(spec, "analytic_double", folder / "walled", 3)
+    finally:
+        os.environ.pop("CALIBRAX_DOUBLE_NOISE")
+    config = {"name": "walled", "simulator": "analytic_double", "experiment": "walled.yaml",
+              "fidelities": ["tiny", {"preset": "quick", "initial": 3}],
+              "parameters": {"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                             "sliding_friction": {"low": 0.1, "high": 0.9}},
+              "metric": "robust", "acquisition": {"name": "mfei", "q": 2}, "budget": {"initial": 8, "iterations": 6},
+              "executor": {"name": "local", "workers": 2}, "store": "walled.h5", "seed": 1}
+    cfg = folder / "campaign.yaml"
+    cfg.write_text(yaml.safe_dump(config))
+    run = calibrax_cli("run", str(cfg), "-q", env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    return folder / "walled.h5"
+
+
+def test_the_store_records_the_cheap_cell_outside_the_search_hash(campaign: Path) -> None:
+    from calibrax.core.config import search_identity
+
+    store = CampaignStore(campaign)
+    cfg = store.config()
+    assert set(cfg["fidelity_cells"]) == {"tiny"}
+    assert ShearCellSpec.from_dict(cfg["fidelity_cells"]["tiny"]).particles_per_diameter == 9.0
+    without = {k: v for k, v in cfg.items() if k != "fidelity_cells"}
+    assert search_identity(without, store.experiment()) == search_identity(cfg, store.experiment())
+
+
+def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resumes(campaign: Path) -> None:
+    run = calibrax_cli("diagnose", str(campaign), "--budget", "36", env=double_env(**NOISE))
+    assert run.returncode == 0, run.stderr
+    out = campaign.with_suffix(".diagnosis")
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert data["verdict"] == "size_distribution", data["reason"]
+    lo, hi = data["recalibrated"]["effect_interval"][HIDDEN[0]]
+    assert lo < HIDDEN[1] < hi
+    # the density's gap, measured at quick, is closed at the recalibration, simulated at quick; the
+    # held-out τ curves, which the size distribution leaves alone, stay within the noise
+    z = {row["name"]: (row["z"], after["z"]) for row, after in zip(data["before"], data["after"])}
+    assert abs(z["bulk_density"][0]) > 3 > abs(z["bulk_density"][1]), z
+    assert data["gap_after"] < 3, z
+    # the design at tiny but for the target's replicates; the confirmation at quick
+    by = data["simulations"]["by_fidelity"]
+    assert by["quick"]["simulations"] == 2 * TARGET_RUNS and data["simulations"]["confirm"] == TARGET_RUNS
+    assert by["tiny"]["simulations"] == data["simulations"]["design"] - TARGET_RUNS
+    assert "By fidelity: tiny " in (out / "diagnosis.md").read_text()
+    assert "across fidelities: the design at tiny" in run.stderr
+    # the first point, the calibrated one, at quick; the rest at tiny (the effects change the
+    # particle count, the size distribution's points among them)
+    tiny, quick = (ShearCellSpec.preset(name).particle_count for name in ("tiny", "quick"))
+    design = [r.provenance.particle_count for _, _, r in CampaignStore(next(out.glob("design-*.h5"))).iter_results()]
+    assert design[:TARGET_RUNS] == [quick] * TARGET_RUNS and quick not in design[TARGET_RUNS:]
+    assert design.count(tiny) >= len(design) // 2
+    confirm = [r.provenance.particle_count for _, _, r in CampaignStore(next(out.glob("confirm-*.h5"))).iter_results()]
+    recalibrated = data["recalibrated"]["effect_values"][HIDDEN[0]]
+    at_quick = _with_hidden(ShearCellSpec.preset("quick"), recalibrated).particle_count
+    assert confirm == [at_quick] * TARGET_RUNS
+
+    # run again: everything resumes from the stores, nothing is simulated again
+    before = _completions(out / "runs")
+    again = calibrax_cli("diagnose", str(campaign), "--budget", "36", env=double_env(**NOISE))
+    assert again.returncode == 0, again.stderr
+    assert _completions(out / "runs") == before
+    assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "size_distribution"
