@@ -118,6 +118,31 @@ def write_double_campaign(folder: Path, **changes) -> Path:
     return path
 
 
+def run_hidden_effect_campaign(folder: Path, spec: ShearCellSpec, noise: dict[str, str], **changes) -> Path:
+    """Make a double pseudo-experiment of ``spec`` (3 replicates, a hidden effect set in it) in
+    ``folder``, run a ``robust`` campaign against it on the command line (``changes`` update the
+    config's keys) and return its store, ``folder/walled.h5``."""
+    from calibrax.core.data.pseudo import write_pseudo_experiment
+
+    saved = {k: os.environ.get(k) for k in noise}
+    os.environ.update(noise)
+    try:
+        write_pseudo_experiment(spec, "analytic_double", folder / "walled", 3)
+    finally:
+        for k, v in saved.items():
+            os.environ.pop(k) if v is None else os.environ.__setitem__(k, v)
+    config = {"name": "walled", "simulator": "analytic_double", "experiment": "walled.yaml", "cell": {"preset": "tiny"},
+              "parameters": {"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                             "sliding_friction": {"low": 0.1, "high": 0.9}},
+              "metric": "robust", "acquisition": {"name": "qei", "q": 2}, "budget": {"initial": 4, "iterations": 1},
+              "executor": {"name": "local", "workers": 2}, "store": "walled.h5", "seed": 1, **changes}
+    cfg = folder / "campaign.yaml"
+    cfg.write_text(yaml.safe_dump(config))
+    run = calibrax_cli("run", str(cfg), "-q", env=double_env(**noise))
+    assert run.returncode == 0, run.stderr
+    return folder / "walled.h5"
+
+
 def calibrax_cli(*args: str, env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
     """Run the real ``calibrax`` command line in a subprocess."""
     return subprocess.run([sys.executable, "-m", "calibrax.cli", *args], capture_output=True, text=True,

@@ -124,7 +124,9 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--backend", help="the diagnosing simulator (default: the campaign's)")
     diag.add_argument("--budget", type=int, metavar="N",
                       help="simulations in all (default 4 replicates + 4 baseline + 8 per effect + 4 to confirm: "
-                           "36 for three effects)")
+                           "36 for three effects). A multi-fidelity campaign is diagnosed across its fidelities: "
+                           "the design at the cheapest, 2 replicates and 2 confirmations at the target "
+                           "(docs/explanation/diagnosis.md#across-fidelities)")
     diag.add_argument("--fit-on", default="locus,density", metavar="GROUPS",
                       help="feature groups the recalibration is fitted to; the others judge it. Groups: locus (peak "
                            "τ/σ per step), density (bulk density after the preshear, conditioned bulk density), "

@@ -10,11 +10,10 @@ import json
 from pathlib import Path
 
 import pytest
-import yaml
 
 from calibrax import ShearCellSpec
 from tests.browser import page_images
-from tests.conftest import calibrax_cli, double_env
+from tests.conftest import calibrax_cli, double_env, run_hidden_effect_campaign
 
 NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
 
@@ -26,28 +25,9 @@ def _completions(folder: Path) -> int:
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory, request) -> Path:
     """A finished double campaign against a pseudo-experiment made with wall friction 0.3."""
-    import os
-
-    from calibrax.core.data.pseudo import write_pseudo_experiment
-
-    folder = tmp_path_factory.mktemp("diagnose-double")
     spec = ShearCellSpec.preset("tiny", material={"youngs_modulus": 2e10, "sliding_friction": 0.45},
                                 geometry={"wall_friction": 0.3})
-    os.environ.update(NOISE)
-    try:
-        write_pseudo_experiment(spec, "analytic_double", folder / "walled", 3)
-    finally:
-        os.environ.pop("CALIBRAX_DOUBLE_NOISE")
-    config = {"name": "walled", "simulator": "analytic_double", "experiment": "walled.yaml", "cell": {"preset": "tiny"},
-              "parameters": {"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
-                             "sliding_friction": {"low": 0.1, "high": 0.9}},
-              "metric": "robust", "acquisition": {"name": "qei", "q": 2}, "budget": {"initial": 4, "iterations": 1},
-              "executor": {"name": "local", "workers": 2}, "store": "walled.h5", "seed": 1}
-    cfg = folder / "campaign.yaml"
-    cfg.write_text(yaml.safe_dump(config))
-    run = calibrax_cli("run", str(cfg), "-q", env=double_env(**NOISE))
-    assert run.returncode == 0, run.stderr
-    return folder / "walled.h5"
+    return run_hidden_effect_campaign(tmp_path_factory.mktemp("diagnose-double"), spec, NOISE)
 
 
 def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign: Path) -> None:

@@ -14,11 +14,10 @@ import json
 from pathlib import Path
 
 import pytest
-import yaml
 
 from calibrax import CampaignStore, ShearCellSpec
 from calibrax.diagnosis.design import TARGET_RUNS
-from tests.conftest import calibrax_cli, double_env
+from tests.conftest import calibrax_cli, double_env, run_hidden_effect_campaign
 
 NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
 HIDDEN = ("sigma_log", 0.3)
@@ -39,29 +38,11 @@ def _completions(folder: Path) -> int:
 def campaign(tmp_path_factory) -> Path:
     """A finished two-fidelity double campaign against a pseudo-experiment made at quick with a
     hidden size distribution."""
-    import os
-
-    from calibrax.core.data.pseudo import write_pseudo_experiment
-
-    folder = tmp_path_factory.mktemp("diagnose-fidelities")
     spec = _with_hidden(ShearCellSpec.preset("quick", material={"youngs_modulus": 2e10, "sliding_friction": 0.45}),
                         HIDDEN[1])
-    os.environ.update(NOISE)
-    try:
-        write_pseudo_experiment(spec, "analytic_double", folder / "walled", 3)
-    finally:
-        os.environ.pop("CALIBRAX_DOUBLE_NOISE")
-    config = {"name": "walled", "simulator": "analytic_double", "experiment": "walled.yaml",
-              "fidelities": ["tiny", {"preset": "quick", "initial": 3}],
-              "parameters": {"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
-                             "sliding_friction": {"low": 0.1, "high": 0.9}},
-              "metric": "robust", "acquisition": {"name": "mfei", "q": 2}, "budget": {"initial": 8, "iterations": 6},
-              "executor": {"name": "local", "workers": 2}, "store": "walled.h5", "seed": 1}
-    cfg = folder / "campaign.yaml"
-    cfg.write_text(yaml.safe_dump(config))
-    run = calibrax_cli("run", str(cfg), "-q", env=double_env(**NOISE))
-    assert run.returncode == 0, run.stderr
-    return folder / "walled.h5"
+    return run_hidden_effect_campaign(tmp_path_factory.mktemp("diagnose-fidelities"), spec, NOISE,
+                                      fidelities=["tiny", {"preset": "quick", "initial": 3}], cell={},
+                                      acquisition={"name": "mfei", "q": 2}, budget={"initial": 8, "iterations": 6})
 
 
 def test_the_store_records_the_cheap_cell_outside_the_search_hash(campaign: Path) -> None:

@@ -1,0 +1,80 @@
+"""A diagnosis across fidelities on the real numba_dem engine: the pseudo-experiment is made at the
+target (a hidden lateral wall friction), the design runs at the cheap fidelity, and the gap is
+measured and the recalibration confirmed at the target (docs/explanation/diagnosis.md, "Across
+fidelities").
+
+    .venv/bin/python benchmarks/diagnose_fidelities.py --workers 2 -o runs/diagnose-fidelities
+    .venv/bin/python benchmarks/diagnose_fidelities.py --target converged --threads 2 --workers 1 -o runs/dfc
+
+It starts from a known calibrated point (the truth's E and μs, a plausible region around it, as
+tests/integration/test_diagnose_numba_dem.py does at one fidelity), so what it measures is the
+diagnosis, not a campaign. It prints the verdict, the wall friction's interval against the truth,
+the held-out gap before and after, and the CPU per fidelity; rerun, it resumes from its stores
+(the pseudo-experiment too, when its files are there).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+TRUTH = {"youngs_modulus": 2.0e10, "sliding_friction": 0.35}
+PLAUSIBLE = {"youngs_modulus": (1.0e10, 4.0e10), "sliding_friction": (0.25, 0.45)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cheap", default="tiny", help="the design's fidelity preset (default tiny)")
+    parser.add_argument("--target", default="quick", help="the target fidelity preset (default quick)")
+    parser.add_argument("--wall-friction", type=float, default=0.4, help="the hidden lateral wall μ (default 0.4)")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--threads", type=int, default=1, help="numerics.threads of each simulation")
+    parser.add_argument("-o", "--output", type=Path, required=True)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
+
+    from calibrax import ShearCellSpec
+    from calibrax.core.data.experiment import load_experiment
+    from calibrax.core.data.pseudo import write_pseudo_experiment
+    from calibrax.core.running.executor import LocalExecutor
+    from calibrax.core.search.parameters import ParameterSpace
+    from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
+    from calibrax.diagnosis.design import TARGET_RUNS
+
+    def spec(preset: str) -> ShearCellSpec:
+        return ShearCellSpec.preset(preset, "paper", material=dict(TRUTH, rolling_friction=0.5),
+                                    numerics={"threads": args.threads}).validate()
+
+    out = args.output
+    out.mkdir(parents=True, exist_ok=True)
+    experiment = out / "walled.yaml"
+    if not experiment.is_file():
+        write_pseudo_experiment(spec(args.target).replace(geometry={"wall_friction": args.wall_friction}), "numba_dem",
+                                out / "walled", replicates=3, workers=args.workers)
+    space = ParameterSpace.from_config({"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                                        "sliding_friction": {"low": 0.1, "high": 0.9}})
+    calibrated = Calibrated("numba_dem", spec(args.target), space, load_experiment(experiment), dict(TRUTH), PLAUSIBLE,
+                            target=args.target, cheap=(args.cheap, spec(args.cheap)))
+    # the one-fidelity DEM test's design (tests/integration/test_diagnose_numba_dem.py) at the cheap
+    # level, TARGET_RUNS replicates and confirmations at the target
+    budget = Budget(replicates=3, baseline=3, per_effect=5, confirm=TARGET_RUNS, target_replicates=TARGET_RUNS)
+    d = diagnose(calibrated, effects_by_name(), out / "walled.diagnosis", LocalExecutor(args.workers), budget=budget)
+    interval = d.recalibrated.get("effect_interval", {}).get("wall_friction")
+    ranked = d.ranking.models[0]
+    print(f"verdict: {d.verdict} ({d.reason})")
+    print(f"design's first: {ranked.name} (p = {ranked.probability:.2f})")
+    if interval:
+        print(f"wall friction: {d.recalibrated['effect_values']['wall_friction']:.3f}, 95 % interval "
+              f"{interval[0]:.3f} to {interval[1]:.3f}; truth {args.wall_friction}")
+    print(f"held-out gap (RMS z): {d.gap_before:.2f} before, {d.gap_after:.2f} after")
+    for name, row in d.simulations.get("by_fidelity", {}).items():
+        print(f"{name}: {row['simulations']} simulations, {row['engine_seconds'] / 3600:.2f} CPU-hours")
+    print(json.dumps(d.simulations))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
