@@ -7,11 +7,13 @@ Both are diagnosed at the same calibrated point, so the second diagnosis starts 
 first one's design store (its simulations do not depend on the experiment) and runs only what is
 its own: a resumed study, as a killed diagnosis would be.
 
-Cost: 6 replicate simulations for the two experiments, a design of 21 and 3 confirmations, all at
-``tiny`` on 2 workers (about 12 minutes on 2 cores). Measured once (runs/diag/e2e1.log): wall
-friction first with p = 1.00 (Bayes factor 9·10⁹ against no effect), the held-out gap (RMS z of
-preshear and post-peak τ/σ, initial slope, prominence) 3.7 before, 2.1 after; the plain experiment
-"no effect" (p = 0.75, the best candidate's Bayes factor 0.15).
+Cost: 6 replicate simulations for the two experiments, a design of 21 (and 8 more where the wall
+friction's best fit reaches the box's edge) and 3 confirmations, all at ``tiny`` on 2 workers
+(about 12 to 16 minutes on 2 cores). Measured once (runs/diag/e2e1.log): wall friction first with
+p = 1.00 (Bayes factor 9·10⁹ against no effect), the held-out gap (RMS z of preshear and post-peak
+τ/σ, initial slope, prominence) 3.7 before, 2.1 after; the plain experiment "no effect" (p = 0.75,
+the best candidate's Bayes factor 0.15). With the box's reach (2026-12-06: the best fit sat at E's
+low edge, the box reached from 10 to 5 GPa): 3.9 before, 1.1 after.
 """
 
 from __future__ import annotations
@@ -76,7 +78,8 @@ def test_the_held_out_gap_shrinks_once_wall_friction_is_added(diagnosed) -> None
     assert d.recalibrated["effect"] == "wall_friction"
     # the effect is found present (its interval excludes zero); its size is not asserted: at tiny the
     # bed jams against a rough wall, the response saturates by μw ≈ 0.15 (runs/cfg/sens.py) and a
-    # quadratic emulator on five points under-reads a hidden 0.4 (measured: 0.18, interval 0.08–0.30)
+    # quadratic emulator on five points under-reads a hidden 0.4 (measured: 0.18, interval 0.08–0.30;
+    # with the box's reach 0.26, interval 0.14–0.38)
     lo, hi = d.recalibrated["effect_interval"]["wall_friction"]
     assert lo > 0.02
     before, after = gap_size(d.held_out("before")), gap_size(d.held_out("after"))

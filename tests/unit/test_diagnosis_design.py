@@ -11,7 +11,7 @@ from calibrax import ShearCellSpec
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.diagnosis import effects_by_name
-from calibrax.diagnosis.design import MIN_HALF_WIDTH, TARGET_RUNS, Box, Budget, design_points
+from calibrax.diagnosis.design import MIN_HALF_WIDTH, TARGET_RUNS, Box, Budget, design_points, reach_points
 from calibrax.diagnosis.effects import TruncatedNormalPrior, UniformPrior
 from calibrax.diagnosis.gap import FeatureGap, feature_gaps, parse_groups
 from calibrax.errors import ConfigError
@@ -102,6 +102,28 @@ def test_a_design_across_fidelities_runs_its_replicates_at_the_target_and_the_re
     assert [p.seeds for p in across[1:]] == [p.seeds for p in alone]
     seeds = [s for p in across for s in p.seeds]
     assert len(seeds) == len(set(seeds))
+
+
+def test_a_fit_at_the_box_edge_widens_the_box_past_it_and_new_points_fill_the_new_part() -> None:
+    """A best fit at the low μs edge (a rough wall compensated by a lower μs) reaches past it by
+    the box's own width on that side, within the bounds; a fit inside, or at a bound, does not."""
+    box = Box.around(SPACE, {"youngs_modulus": 2e10, "sliding_friction": 0.61})
+    i = SPACE.names.index("sliding_friction")
+    best = np.zeros(2)
+    assert box.reach(best) is None
+    best[i] = -1.0
+    wider = box.reach(best)
+    assert wider.low[i] == pytest.approx(0.61 - 2 * (0.61 - box.low[i]))
+    assert wider.high[i] == box.high[i] and np.allclose(np.delete(wider.low, i), np.delete(box.low, i))
+    at_bound = Box.around(SPACE, {"youngs_modulus": 2e10, "sliding_friction": 0.15})
+    assert at_bound.reach(best) is None or at_bound.reach(best).low[i] == pytest.approx(0.1)
+    (wall,) = effects_by_name(["wall_friction"])
+    points = reach_points(box, wider, wall, Budget(4, 3, 6, 4), seed=0, cheap="tiny")
+    assert [p.effect for p in points] == [None] * 3 + ["wall_friction"] * 6 and {p.fidelity for p in points} == {"tiny"}
+    assert all(wider.low[i] <= p.params["sliding_friction"] <= box.low[i] for p in points)
+    seeds = [s for p in points for s in p.seeds]
+    design_seeds = [s for p in design_points(box, effects_by_name(), Budget()) for s in p.seeds]
+    assert len(set(seeds)) == 9 and not set(seeds) & set(design_seeds)
 
 
 def test_feature_gaps_never_take_the_experiments_spread_below_the_seeds() -> None:

@@ -29,6 +29,10 @@ SEED_BASE = 700_000_000
 TARGET_RUNS = 2
 #: the target replicates' seeds: above the design's, below the confirmations' (``+ 900``)
 TARGET_SEED_OFFSET = 800
+#: the seeds of the points a reached box adds (:func:`reach_points`): above the design's
+REACH_SEED_OFFSET = 600
+#: a best fit within this share of the box's half-width of its edge is "at the edge" (scaled [−1, 1])
+EDGE = 0.05
 
 
 @dataclass(frozen=True)
@@ -105,6 +109,26 @@ class Box:
         nat = space.from_unit(np.vstack([lo, hi]))
         return cls(space, np.array([centre[n] for n in space.names], dtype=float), nat[0], nat[1])
 
+    def reach(self, best: np.ndarray) -> "Box | None":
+        """The box widened past each edge that a fit's best point (scaled [−1, 1], shape (d,))
+        sits at, by the box's own width on that side, within the parameter's bounds; None where
+        the best point is inside, or every edge it sits at is a bound already. An effect that adds
+        strength is compensated by the calibrated parameters (a rough wall by a lower μs) by more
+        than :data:`MIN_HALF_WIDTH` where it is strong: the fit then stops at the box's edge, and
+        so does the recalibration."""
+        c = self.space.to_unit(self.centre[None])[0]
+        lo, hi = (self.space.to_unit(v[None])[0] for v in (self.low, self.high))
+        new_lo, new_hi = lo.copy(), hi.copy()
+        for i, b in enumerate(np.asarray(best, dtype=float)):
+            if b <= -1.0 + EDGE and lo[i] > 0.0:
+                new_lo[i] = max(0.0, lo[i] - (c[i] - lo[i]))
+            if b >= 1.0 - EDGE and hi[i] < 1.0:
+                new_hi[i] = min(1.0, hi[i] + (hi[i] - c[i]))
+        if np.array_equal(new_lo, lo) and np.array_equal(new_hi, hi):
+            return None
+        nat = self.space.from_unit(np.vstack([new_lo, new_hi]))
+        return Box(self.space, self.centre, nat[0], nat[1])
+
     def _cube(self, natural: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         u = self.space.to_unit(np.atleast_2d(natural))
         lo, hi = self.space.to_unit(self.low[None])[0], self.space.to_unit(self.high[None])[0]
@@ -176,4 +200,39 @@ def design_points(box: Box, effects: list[Effect], budget: Budget, seed: int = 0
             values = {p.name: float(p.off + u[k, d + i] * (p.high - p.off)) for i, p in enumerate(effect.parameters)}
             points.append(DesignPoint(f"{effect.name} {k + 1}", dict(zip(names, map(float, cal[k]))), effect.name,
                                       values, (next(seeds),), cheap))
+    return points
+
+
+def reach_points(old: Box, box: Box, effect: Effect, budget: Budget, seed: int = 0, cheap: str = "") -> list[DesignPoint]:
+    """The points a box widened past ``old`` (:meth:`Box.reach`) adds: ``budget.baseline`` points
+    without any effect and ``budget.per_effect`` of ``effect`` (the candidate whose fit reached the
+    edge), their calibrated parameters drawn in the new part of the box (a Sobol design over the
+    whole box, mapped into the slab beyond each moved edge), one seed each, at ``cheap``."""
+    names = box.space.names
+    d = len(names)
+    lo_old, hi_old = box.scaled(old.low[None])[0], box.scaled(old.high[None])[0]   # the old box, scaled on the new
+    seeds = iter(range(SEED_BASE + 1000 * seed + REACH_SEED_OFFSET, SEED_BASE + 1000 * seed + TARGET_SEED_OFFSET))
+
+    def into_new_part(u: np.ndarray) -> np.ndarray:
+        """Unit rows on the whole new box, the first moved dimension squeezed into its new slab."""
+        x = 2.0 * u - 1.0
+        moved = [i for i in range(d) if lo_old[i] > -1.0 + 1e-9 or hi_old[i] < 1.0 - 1e-9]
+        i = moved[0]
+        low_slab, high_slab = lo_old[i] + 1.0, 1.0 - hi_old[i]          # widths of the new parts
+        t = u[:, i] * (low_slab + high_slab)
+        x[:, i] = np.where(t < low_slab, -1.0 + t, hi_old[i] + (t - low_slab))
+        return box.natural(x)
+
+    points = []
+    if budget.baseline:
+        for k, row in enumerate(into_new_part(_sobol(d, budget.baseline, seed + 100))):
+            points.append(DesignPoint(f"reach baseline {k + 1}", dict(zip(names, map(float, row))), None, {},
+                                      (next(seeds),), cheap))
+    k_eff = len(effect.parameters)
+    u = _sobol(d + k_eff, budget.per_effect, seed + 101)
+    cal = into_new_part(u[:, :d])
+    for k in range(budget.per_effect):
+        values = {p.name: float(p.off + u[k, d + i] * (p.high - p.off)) for i, p in enumerate(effect.parameters)}
+        points.append(DesignPoint(f"reach {effect.name} {k + 1}", dict(zip(names, map(float, cal[k]))), effect.name,
+                                  values, (next(seeds),), cheap))
     return points

@@ -42,9 +42,9 @@ from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points
+from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points, reach_points
 from calibrax.diagnosis.effects import Effect, EffectParameter
-from calibrax.diagnosis.scoring import (CandidateSpace, Design, Emulator, Ranking, Target, rank,
+from calibrax.diagnosis.scoring import (NO_EFFECT, CandidateSpace, Design, Emulator, Ranking, Target, rank,
                                         score_model)
 from calibrax.diagnosis.verdict import (MAX_TRIED, Confirmation, Verdict, baseline_test, decide,
                                         judge_confirmation)
@@ -340,10 +340,28 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
         outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
                              stage_progress("design"), shutdown=False)
         peak_window = calibrated.spec.procedure.peak_window
-        scored = score_design(gaps.measured(calibrated.experiment, peak_window),
-                              candidate_spaces(effects, calibrated.experiment), points,
-                              [gaps.simulated(o.good, peak_window) for o in outcomes],
-                              sum(len(o.failures) for o in outcomes), box, effect_params, seed)
+        measured, spaces = gaps.measured(calibrated.experiment, peak_window), candidate_spaces(effects, calibrated.experiment)
+
+        def scored_on(box: Box) -> _Scored:
+            return score_design(measured, spaces, points, [gaps.simulated(o.good, peak_window) for o in outcomes],
+                                sum(len(o.failures) for o in outcomes), box, effect_params, seed)
+
+        scored = scored_on(box)
+        top = next((m for m in scored.ranking.models if m.name != NO_EFFECT), None)
+        wider = box.reach(top.best_unit) if top is not None and scored.ranking.verdict != NO_EFFECT else None
+        if wider is not None:
+            extra = reach_points(box, wider, by_name[top.name], budget, seed, cheap)
+            log.info("diagnose: %s's best fit sits at the design box's edge (%s): the box reaches past it, to %s, with "
+                     "%d more simulations", top.label, _box_words(box), _box_words(wider), len(extra))
+            extra_cases = [design_case(calibrated, backend, p, by_name) for p in extra]
+            reach_store = study_store(out, "reach", extra_cases)
+            outcomes = outcomes + run_study(extra_cases, reach_store, executor, out / "runs" / reach_store.stem,
+                                            "diagnose", stage_progress("reach"), shutdown=False)
+            points, box = points + extra, wider
+            stores_extra = {"reach": reach_store.name}
+            scored = scored_on(box)
+        else:
+            stores_extra = {}
         names = scored.design.names
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
         done: dict[str, Any] = {"n": 0, "engine": 0.0, "stores": []}
@@ -371,13 +389,17 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
             "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
     if cheap:
         sims["by_fidelity"] = cost_by_fidelity(calibrated, points, outcomes, done)
-    stores = {"design": design_store.name, **confirm_stores(final, done["stores"])}
+    stores = {"design": design_store.name, **stores_extra, **confirm_stores(final, done["stores"])}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
                        scored.ranking, final, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
                        dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
+
+
+def _box_words(box: Box) -> str:
+    return ", ".join(f"{n} {lo:.4g} to {hi:.4g}" for n, lo, hi in zip(box.space.names, box.low, box.high))
 
 
 def cost_by_fidelity(calibrated: Calibrated, points: list[DesignPoint], outcomes: list[Any],
