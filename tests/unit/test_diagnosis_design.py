@@ -139,3 +139,20 @@ def test_feature_gaps_never_take_the_experiments_spread_below_the_seeds() -> Non
 def test_fit_groups_are_checked(text: str) -> None:
     with pytest.raises(ConfigError, match="--fit-on"):
         parse_groups(text)
+
+
+def test_a_multi_fidelity_store_without_its_cheap_cells_is_diagnosed_at_its_target(caplog, tmp_path) -> None:
+    """A store written before the cheap cells were recorded: every simulation at the target, said in
+    the log; one that records them gives the cheapest fidelity's cell; one fidelity gives none."""
+    from calibrax.diagnosis.run import _fidelities
+
+    tiny = ShearCellSpec.preset("tiny")
+    fidelities = [{"preset": "tiny", "cost": 70.0, "level": 0.0, "initial": 8},
+                  {"preset": "quick", "cost": 250.0, "level": 1.0, "initial": 3}]
+    with caplog.at_level("WARNING", logger="calibrax"):
+        assert _fidelities({"fidelities": fidelities}, tmp_path / "old.h5") == ("quick", None)
+    assert "old.h5 records no cell for its cheap fidelity tiny" in caplog.text
+    target, (name, cell) = _fidelities({"fidelities": fidelities, "fidelity_cells": {"tiny": tiny.to_dict()}},
+                                       tmp_path / "new.h5")
+    assert (target, name, cell.particles_per_diameter) == ("quick", "tiny", tiny.particles_per_diameter)
+    assert _fidelities({}, tmp_path / "one.h5") == ("", None)
