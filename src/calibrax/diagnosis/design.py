@@ -5,7 +5,12 @@ the effect's range.
 The box around the calibrated point is where the joint fit may move the calibrated parameters:
 an effect that adds strength is compensated by a lower μs, so the box must reach past the
 campaign's plausible region. Each calibrated parameter spans its plausible interval, widened to at
-least ``MIN_HALF_WIDTH`` of its range on either side of the recommendation, within its bounds.
+least ``MIN_HALF_WIDTH`` of its range on either side of the recommendation, within its bounds;
+where the top candidate's fit still stops at an edge, the box reaches past it once
+(:meth:`Box.reach`, :func:`reach_points`).
+
+Across fidelities (a multi-fidelity campaign), every point runs at the cheapest fidelity but the
+target's replicates at the calibrated point, which come first (:func:`design_points` with ``cheap``).
 """
 
 from __future__ import annotations
