@@ -118,6 +118,11 @@ def write_double_campaign(folder: Path, **changes) -> Path:
     return path
 
 
+def completions_logged(folder: Path) -> int:
+    """Simulations the analytic double completed under ``folder`` (its ``completions.log`` lines)."""
+    return sum(len(p.read_text().splitlines()) for p in folder.rglob("completions.log"))
+
+
 def run_hidden_effect_campaign(folder: Path, spec: ShearCellSpec, noise: dict[str, str], **changes) -> Path:
     """Make a double pseudo-experiment of ``spec`` (3 replicates, a hidden effect set in it) in
     ``folder``, run a ``robust`` campaign against it on the command line (``changes`` update the

@@ -13,13 +13,9 @@ import pytest
 
 from calibrax import ShearCellSpec
 from tests.browser import page_images
-from tests.conftest import calibrax_cli, double_env, run_hidden_effect_campaign
+from tests.conftest import calibrax_cli, completions_logged, double_env, run_hidden_effect_campaign
 
 NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
-
-
-def _completions(folder: Path) -> int:
-    return sum(len(p.read_text().splitlines()) for p in folder.rglob("completions.log"))
 
 
 @pytest.fixture(scope="module")
@@ -49,16 +45,16 @@ def test_diagnose_names_the_hidden_wall_friction_and_writes_everything(campaign:
     assert "on analytic_double, seed 700000000" in run.stderr
 
     # run again: everything resumes from the stores, nothing is simulated again
-    before = _completions(out / "runs")
+    before = completions_logged(out / "runs")
     again = calibrax_cli("diagnose", str(campaign), "--budget", "30", env=double_env(**NOISE))
     assert again.returncode == 0, again.stderr
-    assert _completions(out / "runs") == before
+    assert completions_logged(out / "runs") == before
     assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "wall_friction"
 
     # another --fit-on reuses the design and confirms its own recalibration in a store of its own
     other = calibrax_cli("diagnose", str(campaign), "--budget", "30", "--fit-on", "locus", env=double_env(**NOISE))
     assert other.returncode == 0, other.stderr
-    assert _completions(out / "runs") == before + 4
+    assert completions_logged(out / "runs") == before + 4
     assert len(list(out.glob("confirm-*.h5"))) == 2
 
     # the campaign's report includes the diagnosis
@@ -137,10 +133,10 @@ def test_sensitivity_tables_what_the_test_can_see_and_resumes(campaign: Path) ->
     assert visible("size_distribution", "density") >= 3 and visible("size_distribution", "locus") < 3
     assert "| wall_friction medium" in run.stdout and "**" in run.stdout
     # run again: the design resumes from its store, nothing is simulated again
-    before = _completions(out / "design")
+    before = completions_logged(out / "design")
     again = calibrax_cli("sensitivity", str(campaign), env=double_env(**NOISE))
     assert again.returncode == 0, again.stderr
-    assert _completions(out / "design") == before
+    assert completions_logged(out / "design") == before
 
 
 @pytest.mark.parametrize("args, key", [(["--replicates", "0"], "--replicates"), (["--workers", "0"], "--workers"),

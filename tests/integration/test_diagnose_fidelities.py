@@ -17,7 +17,7 @@ import pytest
 
 from calibrax import CampaignStore, ShearCellSpec
 from calibrax.diagnosis.design import TARGET_RUNS
-from tests.conftest import calibrax_cli, double_env, run_hidden_effect_campaign
+from tests.conftest import calibrax_cli, completions_logged, double_env, run_hidden_effect_campaign
 
 NOISE = {"CALIBRAX_DOUBLE_NOISE": "0.03"}
 HIDDEN = ("sigma_log", 0.3)
@@ -28,10 +28,6 @@ def _with_hidden(spec: ShearCellSpec, value: float) -> ShearCellSpec:
     from calibrax.diagnosis import effects_by_name
 
     return effects_by_name(["size_distribution"])[0].apply(spec, {HIDDEN[0]: value})
-
-
-def _completions(folder: Path) -> int:
-    return sum(len(p.read_text().splitlines()) for p in folder.rglob("completions.log"))
 
 
 @pytest.fixture(scope="module")
@@ -87,8 +83,8 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     assert confirm == [at_quick] * TARGET_RUNS
 
     # run again: everything resumes from the stores, nothing is simulated again
-    before = _completions(out / "runs")
+    before = completions_logged(out / "runs")
     again = calibrax_cli("diagnose", str(campaign), "--budget", "36", env=double_env(**NOISE))
     assert again.returncode == 0, again.stderr
-    assert _completions(out / "runs") == before
+    assert completions_logged(out / "runs") == before
     assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "size_distribution"
