@@ -45,6 +45,10 @@ if (os.cpu_count() or 1) < 2:
 # Numba's OpenMP threads spin while they wait for work; beside the suite's other processes on 2
 # cores that made a 13 s in-process pour take 128 s (measured with two busy processes beside it)
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# numba_dem's CUDA path runs under Numba's CUDA simulator here (CI has no GPU): its kernels run on
+# the CPU thread by thread (tests/integration/test_numba_dem_cuda.py). On a GPU, its own check is
+# benchmarks/gpu_check.py, which sets NUMBA_ENABLE_CUDASIM=0.
+os.environ.setdefault("NUMBA_ENABLE_CUDASIM", "1")
 
 import numpy as np
 import pytest

@@ -508,3 +508,10 @@ def _check_plugins(raw: dict, simulator: str, spec: ShearCellSpec, space: Parame
         check_parameter_capabilities(simulator_obj, space)
     except PluginError as exc:
         raise ConfigError("simulator", str(exc)) from None
+    if executor[0] != "dask" and hasattr(simulator_obj, "check_machine"):
+        # the simulations run on this machine: a backend may refuse what it cannot run here (a
+        # GPU asked for, none visible); a Dask executor's workers are elsewhere and check it themselves
+        try:
+            simulator_obj.check_machine(spec)
+        except ConfigError as exc:
+            raise ConfigError(f"cell.{exc.key}", exc.message) from None

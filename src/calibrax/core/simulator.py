@@ -19,9 +19,10 @@ from calibrax.errors import ConfigError
 #: lacks is refused by :func:`check_capabilities` before anything runs.
 #: (``compressibility_test``: the FT4's compressibility ramp, procedure.compressibility_stresses;
 #: ``sector``: a periodic sector of the cell, geometry.sector; ``branched_steps``: every shear step
-#: from a copy of one presheared bed, procedure.branches)
+#: from a copy of one presheared bed, procedure.branches; ``cuda``: stepping on a CUDA GPU,
+#: numerics.device)
 KNOWN_CAPABILITIES = frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                                "compressibility_test", "sector", "branched_steps"})
+                                "compressibility_test", "sector", "branched_steps", "cuda"})
 
 
 @runtime_checkable
@@ -32,6 +33,11 @@ class Simulator(Protocol):
     anything it needs under ``workdir`` only, and raise
     :class:`calibrax.errors.SimulationFailed` (with the engine's log tail) on a crash, a NaN, a
     blow-up or a timeout.
+
+    A backend may also define ``check_machine(spec)``, raising
+    :class:`calibrax.errors.SpecError` naming the field when this machine cannot run ``spec`` (a
+    GPU asked for, none here); a campaign whose simulations run locally calls it before anything
+    runs.
     """
 
     name: str

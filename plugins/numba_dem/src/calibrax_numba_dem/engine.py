@@ -64,9 +64,99 @@ FASTMATH = {"contract", "arcp", "nsz"}
 GATHER_BLOCKS = 64
 
 
+@njit(cache=True, inline="always")
+def pair_row(i, x, v, w, rad, mass, start, pj, pimg, hist, rhist, pf, fo, dt, e_star, g_star, beta, mu, mur, coh,
+             cs, sn):
+    """Contact forces and torques of the pairs particle i owns: the body of :func:`pair_forces`'s
+    loop, and of the CUDA path's pair kernel (:mod:`cuda_engine`), so that both paths compute the
+    same physics from one source.
+
+    Args:
+        i: the owner. x, v, w, rad, mass, start, pj, pimg, hist, rhist, pf, fo: see
+            :func:`pair_forces` (pf rows of i's pairs and fo row i are written).
+        dt: s. e_star, g_star: Pa. beta: damping factor. mu, mur: sliding and rolling friction.
+        coh: SJKR energy density, J/m³. cs, sn: cos Θ and sin Θ of the sector's opening (1, 0 in
+            the full cell).
+    """
+    ri = rad[i]
+    mi = mass[i]
+    xi0 = x[i, 0]
+    xi1 = x[i, 1]
+    xi2 = x[i, 2]
+    sfx = 0.0
+    sfy = 0.0
+    sfz = 0.0
+    stx = 0.0
+    sty = 0.0
+    stz = 0.0
+    for p in range(start[i], start[i + 1]):
+        j = pj[p]
+        # the partner's image, rotated by sΘ (s = 0 in the full cell: a branch it always skips)
+        s = pimg[p]
+        sj = s * sn
+        xj0 = x[j, 0]
+        xj1 = x[j, 1]
+        vj0 = v[j, 0]
+        vj1 = v[j, 1]
+        wj0 = w[j, 0]
+        wj1 = w[j, 1]
+        if s != 0:
+            xj0, xj1 = rotate_xy(xj0, xj1, cs, sj)
+            vj0, vj1 = rotate_xy(vj0, vj1, cs, sj)
+            wj0, wj1 = rotate_xy(wj0, wj1, cs, sj)
+        dx = xi0 - xj0
+        dy = xi1 - xj1
+        dz = xi2 - x[j, 2]
+        r2 = dx * dx + dy * dy + dz * dz
+        rj = rad[j]
+        rsum = ri + rj
+        if r2 >= rsum * rsum:
+            clear_history(hist, rhist, p)
+            for c in range(PF_SIZE):
+                pf[p, c] = 0.0
+            continue
+        rr = math.sqrt(r2)
+        inv = 1.0 / rr
+        nx = dx * inv
+        ny = dy * inv
+        nz = dz * inv
+        mj = mass[j]
+        fx, fy, fz, qx, qy, qz, mx, my, mz, _ = contact(
+            nx, ny, nz, rsum - rr, ri * rj / rsum, mi * mj / (mi + mj),
+            v[i, 0] - vj0, v[i, 1] - vj1, v[i, 2] - v[j, 2],
+            ri * w[i, 0] + rj * wj0, ri * w[i, 1] + rj * wj1, ri * w[i, 2] + rj * w[j, 2],
+            w[i, 0] - wj0, w[i, 1] - wj1, w[i, 2] - w[j, 2],
+            e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, p)
+        sfx += fx
+        sfy += fy
+        sfz += fz
+        stx += mx - ri * qx
+        sty += my - ri * qy
+        stz += mz - ri * qz
+        pfx = fx
+        pfy = fy
+        tjx = -mx - rj * qx
+        tjy = -my - rj * qy
+        if s != 0:
+            pfx, pfy = rotate_xy(pfx, pfy, cs, -sj)
+            tjx, tjy = rotate_xy(tjx, tjy, cs, -sj)
+        pf[p, 0] = pfx
+        pf[p, 1] = pfy
+        pf[p, 2] = fz
+        pf[p, 3] = tjx
+        pf[p, 4] = tjy
+        pf[p, 5] = -mz - rj * qz
+    fo[i, 0] = sfx
+    fo[i, 1] = sfy
+    fo[i, 2] = sfz
+    fo[i, 3] = stx
+    fo[i, 4] = sty
+    fo[i, 5] = stz
+
+
 @njit(parallel=True, cache=True, fastmath=FASTMATH)
 def pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo):
-    """Contact force and torques of every listed pair, once per pair.
+    """Contact force and torques of every listed pair, once per pair (:func:`pair_row` per owner).
 
     Args:
         x, v, w: positions (m), velocities (m/s), angular velocities (rad/s), shape (N, 3).
@@ -91,86 +181,71 @@ def pair_forces(x, v, w, rad, mass, start, pj, pimg, hist, rhist, params, pf, fo
     cs = math.cos(params[P_SECTOR])
     sn = math.sin(params[P_SECTOR])
     for i in prange(n):
-        ri = rad[i]
-        mi = mass[i]
-        xi0 = x[i, 0]
-        xi1 = x[i, 1]
-        xi2 = x[i, 2]
-        sfx = 0.0
-        sfy = 0.0
-        sfz = 0.0
-        stx = 0.0
-        sty = 0.0
-        stz = 0.0
-        for p in range(start[i], start[i + 1]):
-            j = pj[p]
-            # the partner's image, rotated by sΘ (s = 0 in the full cell: a branch it always skips)
-            s = pimg[p]
-            sj = s * sn
-            xj0 = x[j, 0]
-            xj1 = x[j, 1]
-            vj0 = v[j, 0]
-            vj1 = v[j, 1]
-            wj0 = w[j, 0]
-            wj1 = w[j, 1]
-            if s != 0:
-                xj0, xj1 = rotate_xy(xj0, xj1, cs, sj)
-                vj0, vj1 = rotate_xy(vj0, vj1, cs, sj)
-                wj0, wj1 = rotate_xy(wj0, wj1, cs, sj)
-            dx = xi0 - xj0
-            dy = xi1 - xj1
-            dz = xi2 - x[j, 2]
-            r2 = dx * dx + dy * dy + dz * dz
-            rj = rad[j]
-            rsum = ri + rj
-            if r2 >= rsum * rsum:
-                clear_history(hist, rhist, p)
-                for c in range(PF_SIZE):
-                    pf[p, c] = 0.0
-                continue
-            rr = math.sqrt(r2)
-            inv = 1.0 / rr
-            nx = dx * inv
-            ny = dy * inv
-            nz = dz * inv
-            mj = mass[j]
-            fx, fy, fz, qx, qy, qz, mx, my, mz, _ = contact(
-                nx, ny, nz, rsum - rr, ri * rj / rsum, mi * mj / (mi + mj),
-                v[i, 0] - vj0, v[i, 1] - vj1, v[i, 2] - v[j, 2],
-                ri * w[i, 0] + rj * wj0, ri * w[i, 1] + rj * wj1, ri * w[i, 2] + rj * w[j, 2],
-                w[i, 0] - wj0, w[i, 1] - wj1, w[i, 2] - w[j, 2],
-                e_star, g_star, beta, mu, mur, coh, dt, hist, rhist, p)
-            sfx += fx
-            sfy += fy
-            sfz += fz
-            stx += mx - ri * qx
-            sty += my - ri * qy
-            stz += mz - ri * qz
-            pfx = fx
-            pfy = fy
-            tjx = -mx - rj * qx
-            tjy = -my - rj * qy
-            if s != 0:
-                pfx, pfy = rotate_xy(pfx, pfy, cs, -sj)
-                tjx, tjy = rotate_xy(tjx, tjy, cs, -sj)
-            pf[p, 0] = pfx
-            pf[p, 1] = pfy
-            pf[p, 2] = fz
-            pf[p, 3] = tjx
-            pf[p, 4] = tjy
-            pf[p, 5] = -mz - rj * qz
-        fo[i, 0] = sfx
-        fo[i, 1] = sfy
-        fo[i, 2] = sfz
-        fo[i, 3] = stx
-        fo[i, 4] = sty
-        fo[i, 5] = stz
+        pair_row(i, x, v, w, rad, mass, start, pj, pimg, hist, rhist, pf, fo, dt, e_star, g_star, beta, mu, mur,
+                 coh, cs, sn)
+
+
+@njit(cache=True, inline="always")
+def gather_row(i, x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs, wid, whist,
+               wrhist, x_build, kick, dt, gz):
+    """Particle i's total force and torque, then its kick and drift: the body of
+    :func:`gather_kick_drift`'s loop, and of the CUDA path's gather kernel (:mod:`cuda_engine`).
+
+    Args: see :func:`gather_kick_drift`; dt: s; gz: gravity along z, m/s².
+
+    Returns:
+        (F_head_up N, T_head N·m, F_base_up N, squared displacement since the last build m²): i's
+        shares of the head's and the base's loads (:func:`geometry.wall_forces`).
+    """
+    fx = fo[i, 0]
+    fy = fo[i, 1]
+    fz = mass[i] * gz + fo[i, 2]
+    tx = fo[i, 3]
+    ty = fo[i, 4]
+    tz = fo[i, 5]
+    for q in range(rstart[i], rstart[i + 1]):
+        p = rpair[q]
+        fx -= pf[p, 0]
+        fy -= pf[p, 1]
+        fz -= pf[p, 2]
+        tx += pf[p, 3]
+        ty += pf[p, 4]
+        tz += pf[p, 5]
+    wfx, wfy, wfz, wtx, wty, wtz, fh, th, fb = wall_forces(i, x, v, w, rad, mass, params, head, dirs,
+                                                            wid, whist, wrhist)
+    fx += wfx
+    fy += wfy
+    fz += wfz
+    tx += wtx
+    ty += wty
+    tz += wtz
+    f[i, 0] = fx
+    f[i, 1] = fy
+    f[i, 2] = fz
+    t[i, 0] = tx
+    t[i, 1] = ty
+    t[i, 2] = tz
+    a = kick * dt / mass[i]
+    b = kick * dt / inertia[i]
+    v[i, 0] += a * fx
+    v[i, 1] += a * fy
+    v[i, 2] += a * fz
+    w[i, 0] += b * tx
+    w[i, 1] += b * ty
+    w[i, 2] += b * tz
+    acc = 0.0
+    for d in range(3):
+        x[i, d] += dt * v[i, d]
+        e = x[i, d] - x_build[i, d]
+        acc += e * e
+    return fh, th, fb, acc
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH)
 def gather_kick_drift(x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs,
                       wid, whist, wrhist, x_build, kick, part):
-    """Total force and torque on every particle, then its kick and drift, block by block.
+    """Total force and torque on every particle, then its kick and drift, block by block
+    (:func:`gather_row` per particle).
 
     Adds, in this order, to gravity the sum over the pairs the particle owns (``fo``), its shares
     of the pairs it is the partner of (``pf``, in increasing pair index) and the walls, into f (N)
@@ -198,50 +273,11 @@ def gather_kick_drift(x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, 
         fb_sum = 0.0
         d2max = 0.0
         for i in range(c * n // nb, (c + 1) * n // nb):
-            fx = fo[i, 0]
-            fy = fo[i, 1]
-            fz = mass[i] * gz + fo[i, 2]
-            tx = fo[i, 3]
-            ty = fo[i, 4]
-            tz = fo[i, 5]
-            for q in range(rstart[i], rstart[i + 1]):
-                p = rpair[q]
-                fx -= pf[p, 0]
-                fy -= pf[p, 1]
-                fz -= pf[p, 2]
-                tx += pf[p, 3]
-                ty += pf[p, 4]
-                tz += pf[p, 5]
-            wfx, wfy, wfz, wtx, wty, wtz, fh, th, fb = wall_forces(i, x, v, w, rad, mass, params, head, dirs,
-                                                                    wid, whist, wrhist)
-            fx += wfx
-            fy += wfy
-            fz += wfz
-            tx += wtx
-            ty += wty
-            tz += wtz
-            f[i, 0] = fx
-            f[i, 1] = fy
-            f[i, 2] = fz
-            t[i, 0] = tx
-            t[i, 1] = ty
-            t[i, 2] = tz
+            fh, th, fb, acc = gather_row(i, x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head,
+                                         dirs, wid, whist, wrhist, x_build, kick, dt, gz)
             fh_sum += fh
             th_sum += th
             fb_sum += fb
-            a = kick * dt / mass[i]
-            b = kick * dt / inertia[i]
-            v[i, 0] += a * fx
-            v[i, 1] += a * fy
-            v[i, 2] += a * fz
-            w[i, 0] += b * tx
-            w[i, 1] += b * ty
-            w[i, 2] += b * tz
-            acc = 0.0
-            for d in range(3):
-                x[i, d] += dt * v[i, d]
-                e = x[i, d] - x_build[i, d]
-                acc += e * e
             d2max = max(d2max, acc)
         part[c, W_HEAD_F] = fh_sum
         part[c, W_HEAD_T] = th_sum
@@ -280,6 +316,21 @@ def rebuild(x, v, w, rad, skin, cell_size, params, start, pj, pimg, hist, rhist,
     rhist[:total] = rhist2[:total]
     x_build[:, :] = x
     return total
+
+
+@njit(cache=True, inline="always")
+def finish_step(head, fh, th, fb, dt):
+    """The head's part of a step, once the particles have moved: the servo's kick and the head's
+    drift under the particles' upward force ``fh`` (N), and the load accumulators (``fh``, the
+    resisting torque ``th`` N·m, the base's force ``fb`` N) and the clock advanced by ``dt`` s.
+    Shared with the CUDA path's head kernel (:mod:`cuda_engine`)."""
+    head_kick(head, fh, dt)
+    head_drift(head, dt)
+    head[H_ACC_F] += fh
+    head[H_ACC_T] += th
+    head[H_ACC_BASE] += fb
+    head[H_ACC_N] += 1.0
+    head[H_TIME] += dt
 
 
 @njit(cache=True)
@@ -325,13 +376,7 @@ def advance(nsteps, kick0, x, v, w, f, t, rad, mass, inertia, x_build,
             th += part[c, W_HEAD_T]
             fb += part[c, W_BASE_F]
             dmax = max(dmax, part[c, W_SIZE])
-        head_kick(head, fh, dt)
-        head_drift(head, dt)
-        head[H_ACC_F] += fh
-        head[H_ACC_T] += th
-        head[H_ACC_BASE] += fb
-        head[H_ACC_N] += 1.0
-        head[H_TIME] += dt
+        finish_step(head, fh, th, fb, dt)
     return STATUS_OK, nsteps, builds, start[n]
 
 
@@ -458,6 +503,17 @@ def numba_threads(n: int):
         yield
     finally:
         numba.set_num_threads(old)
+
+
+def make_system(device: str, x: np.ndarray, rad: np.ndarray, density: float, params: np.ndarray,
+                **options) -> "DEMSystem":
+    """A :class:`DEMSystem` (``device`` "cpu") or a :class:`~calibrax_numba_dem.cuda_engine.CudaDEMSystem`
+    ("cuda", imported only then), built with the same arguments."""
+    if device == "cuda":
+        from .cuda_engine import CudaDEMSystem
+
+        return CudaDEMSystem(x, rad, density, params, **options)
+    return DEMSystem(x, rad, density, params, **options)
 
 
 def make_params(**values: float) -> np.ndarray:

@@ -56,4 +56,7 @@ def head_kick(head, f_up, dt):
     elif v < -vmax:
         v = -vmax
     head[H_VZ] = v
-    head[H_VREF] += (v - head[H_VREF]) * min(1.0, dt / head[H_TAU_REF])
+    # a conditional, not min(): the CUDA path compiles this function too (cuda_engine), and Numba's
+    # CUDA min() cannot be compiled without a GPU at hand (cuda_engine.compile_ptx)
+    gain = dt / head[H_TAU_REF]
+    head[H_VREF] += (v - head[H_VREF]) * (gain if gain < 1.0 else 1.0)

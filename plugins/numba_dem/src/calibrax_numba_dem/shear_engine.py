@@ -12,7 +12,7 @@ from calibrax.core.sheartest.packing import initial_packing
 from calibrax.core.sheartest.sector import sector_angle
 
 from .contact import beta_from_restitution, effective_moduli
-from .engine import DEMSystem, make_params
+from .engine import DEMSystem, make_params, make_system
 from .layout import (H_DAMP, H_FTARGET, H_MASS, H_MODE, H_OMEGA, H_PHI, H_TAU_REF, H_TIME, H_VMAX, H_VREF, H_VZ,
                      H_Z, P_GZ, P_MU, P_MU_BASE, P_MU_HEAD, P_MU_WALL, P_MUR, P_MUR_BASE, P_MUR_HEAD, P_MUR_WALL,
                      P_NBLADES, P_USE_HEAD)
@@ -55,7 +55,7 @@ class NumbaShearEngine:
             sector=sector_angle(g.sector) if g.sector > 1 else 0.0, core_r=spec.core_radius)
         self.blade_count = float(g.blade_count)
         self.sector = float(g.sector)
-        self.sys = DEMSystem(x, radii, m.density, params, v=v)
+        self.sys = make_system(spec.numerics.device, x, radii, m.density, params, v=v)
         self.set_friction("pour")
 
     @staticmethod

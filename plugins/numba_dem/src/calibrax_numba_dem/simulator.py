@@ -27,10 +27,23 @@ class NumbaDEMSimulator:
 
     def capabilities(self) -> frozenset[str]:
         """Optional effects modelled: wall friction, size distributions, SJKR cohesion, base
-        ribs, rolling friction, the compressibility ramp, a periodic sector of the cell, and shear
-        steps branched from one preshear."""
+        ribs, rolling friction, the compressibility ramp, a periodic sector of the cell, shear
+        steps branched from one preshear, and stepping on a CUDA GPU (``numerics.device: cuda``,
+        :mod:`calibrax_numba_dem.cuda_engine`)."""
         return frozenset({"wall_friction", "size_distribution", "cohesion", "base_ribs", "rolling_friction",
-                          "compressibility_test", "sector", "branched_steps"})
+                          "compressibility_test", "sector", "branched_steps", "cuda"})
+
+    def check_machine(self, spec: ShearCellSpec) -> None:
+        """Raise SpecError naming ``numerics.device`` when ``spec`` asks for a CUDA GPU and none is
+        visible on this machine (campaigns call it before anything runs, where simulations run
+        locally)."""
+        if spec.numerics.device == "cuda":
+            from .cuda_engine import cuda_available
+
+            if not cuda_available():
+                raise SpecError("numerics.device", "cuda needs a CUDA GPU, and none is visible on this machine "
+                                "(numba.cuda.is_available() is False): set cell.numerics.device: cpu, or run "
+                                "where a GPU is (a Dask executor's workers with gpus: 1)")
 
     def version(self) -> str:
         """``numba_dem <version> (numba <version>)``."""
@@ -48,6 +61,7 @@ class NumbaDEMSimulator:
         from .procedure import RunLog, ShearTestDriver, new_logger
 
         spec.validate()
+        self.check_machine(spec)
         threads = spec.numerics.threads
         if threads > numba.config.NUMBA_NUM_THREADS:
             raise SpecError("numerics.threads", f"numba_dem can use at most {numba.config.NUMBA_NUM_THREADS} "

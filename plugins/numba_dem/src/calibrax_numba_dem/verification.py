@@ -1,6 +1,7 @@
 """Small, self-contained verification cases of the contact laws and boundaries.
 
-Each function builds a tiny :class:`~calibrax_numba_dem.engine.DEMSystem`, runs it with the same
+Each function builds a tiny :class:`~calibrax_numba_dem.engine.DEMSystem` (or, with
+``device="cuda"``, a :class:`~calibrax_numba_dem.cuda_engine.CudaDEMSystem`), runs it with the same
 kernels the shear test uses, and returns what it measured next to the theory, as a plain dict, so
 that tests (and a cross-check command on every backend) can compare them. SI units throughout.
 """
@@ -14,7 +15,7 @@ from calibrax.core.sheartest.verification import CohesiveFunctionVerification
 from calibrax.core.sheartest.analytic import hertz_contact_time, rolling_stop, sliding_deceleration, sliding_time
 
 from .contact import beta_from_restitution, effective_moduli
-from .engine import DEMSystem, make_params, numba_threads
+from .engine import make_params, make_system, numba_threads
 
 __all__ = ["NumbaDEMVerification", "hertz_contact_time", "two_sphere_collision", "sliding_on_base", "rolling_resistance",
            "resting_bed_base_load", "pull_off"]
@@ -27,7 +28,7 @@ def _params(youngs_modulus: float, poisson_ratio: float, restitution: float, dt:
 
 def _two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: float = 0.9e-3,
                          youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
-                         steps_per_contact: int = 500) -> dict[str, float]:
+                         steps_per_contact: int = 500, device: str = "cpu") -> dict[str, float]:
     """Head-on impact of two equal spheres at relative speed ``speed`` (m/s), no gravity.
 
     Returns:
@@ -40,7 +41,7 @@ def _two_sphere_collision(speed: float = 0.5, restitution: float = 1.0, radius: 
     gap = 0.1 * speed * t_c
     x = np.array([[-radius - gap, 0.0, 0.0], [radius + gap, 0.0, 0.0]])
     v = np.array([[0.5 * speed, 0.0, 0.0], [-0.5 * speed, 0.0, 0.0]])
-    sys = DEMSystem(x, np.full(2, radius), density, _params(youngs_modulus, poisson_ratio, restitution, dt,
+    sys = make_system(device, x, np.full(2, radius), density, _params(youngs_modulus, poisson_ratio, restitution, dt,
                                                              mu=0.5, mur=0.0), v=v)
     ke0 = sys.kinetic_energy()
     in_contact = 0
@@ -66,7 +67,7 @@ def _rest_overlap(radius: float, mass: float, e_star: float, g: float) -> float:
 
 def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 0.9e-3,
                     youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
-                    restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6) -> dict[str, float]:
+                    restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6, device: str = "cpu") -> dict[str, float]:
     """A sphere launched without spin along a flat base of friction ``friction``.
 
     While it slides, the Coulomb force decelerates it at μs·g. Returns ``deceleration`` (m/s²,
@@ -76,7 +77,7 @@ def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 
     e_star, _ = effective_moduli(youngs_modulus, poisson_ratio)
     m = 4.0 / 3.0 * math.pi * radius**3 * density
     z0 = radius - _rest_overlap(radius, m, e_star, g)
-    sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
+    sys = make_system(device, np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
                     _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
                             mu_base=friction, mu=friction), v=np.array([[speed, 0.0, 0.0]]))
     t_slide = sliding_time(speed, friction, g)
@@ -93,7 +94,7 @@ def _sliding_on_base(friction: float = 0.5, speed: float = 0.5, radius: float = 
 
 def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radius: float = 0.9e-3,
                        youngs_modulus: float = 25e9, poisson_ratio: float = 0.25, density: float = 3000.0,
-                       restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6) -> dict[str, float]:
+                       restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6, device: str = "cpu") -> dict[str, float]:
     """A sphere spinning about a horizontal axis on a base without sliding friction, with EPSD2
     rolling resistance ``rolling_friction``.
 
@@ -105,7 +106,7 @@ def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radiu
     inertia, expected, t_stop = rolling_stop(radius, density, rolling_friction, spin, g)
     m = 4.0 / 3.0 * math.pi * radius**3 * density
     z0 = radius - _rest_overlap(radius, m, e_star, g)
-    sys = DEMSystem(np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
+    sys = make_system(device, np.array([[0.0, 0.0, z0]]), np.array([radius]), density,
                     _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, use_base=1.0,
                             mu_base=0.0, mur_base=rolling_friction))
     sys.w[0, 0] = spin
@@ -123,7 +124,7 @@ def _rolling_resistance(rolling_friction: float = 0.5, spin: float = 30.0, radiu
 def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius: float = 0.9e-3,
                           cell_diameters: float = 8.0, youngs_modulus: float = 25e9, poisson_ratio: float = 0.25,
                           density: float = 3000.0, restitution: float = 0.3, g: float = 9.81, dt: float = 1.0e-6,
-                          settle_time: float = 0.06, average_time: float = 0.01, seed: int = 0) -> dict[str, float]:
+                          settle_time: float = 0.06, average_time: float = 0.01, seed: int = 0, device: str = "cpu") -> dict[str, float]:
     """A bed poured into a cylinder with a frictionless wall *and* a frictionless base.
 
     Neither wall can carry shear, so at rest the base carries the bed's full weight. The bed
@@ -136,7 +137,7 @@ def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius
     rc = 0.5 * cell_diameters * 2.0 * radius
     rng = np.random.default_rng(seed)
     x = lattice_column(np.full(n_particles, radius), rc, rng)
-    sys = DEMSystem(x, np.full(n_particles, radius), density,
+    sys = make_system(device, x, np.full(n_particles, radius), density,
                     _params(youngs_modulus, poisson_ratio, restitution, dt, gz=-g, mu=friction, use_base=1.0,
                             use_cyl=1.0, rc=rc))
     t = 0.0
@@ -150,7 +151,7 @@ def _resting_bed_base_load(n_particles: int = 300, friction: float = 0.5, radius
 
 
 def _pull_off(energy_density: float = 1.0e8, radius: float = 0.9e-3, youngs_modulus: float = 25e9,
-              poisson_ratio: float = 0.25, density: float = 3000.0, steps: int = 4000) -> dict[str, float]:
+              poisson_ratio: float = 0.25, density: float = 3000.0, steps: int = 4000, device: str = "cpu") -> dict[str, float]:
     """Two spheres with SJKR cohesion ``energy_density`` (J/m³) pulled apart along x, and a sphere
     pulled off the base along z, displacement-controlled, without damping (restitution 1: the
     pull-off force is a quasi-static quantity) or gravity.
@@ -172,7 +173,7 @@ def _pull_off(energy_density: float = 1.0e8, radius: float = 0.9e-3, youngs_modu
         wall = axis == 2
         x = np.array([[0.0, 0.0, radius - start]]) if wall else np.array([[0.0, 0.0, 0.0], [2.0 * radius - start, 0.0, 0.0]])
         params = _params(youngs_modulus, poisson_ratio, 1.0, dt, coh=energy_density, use_base=1.0 if wall else 0.0)
-        sys = DEMSystem(x, np.full(len(x), radius), density, params)
+        sys = make_system(device, x, np.full(len(x), radius), density, params)
         moving = len(x) - 1
         attraction = 0.0
         for k in range(steps + 1):

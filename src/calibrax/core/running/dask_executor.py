@@ -6,7 +6,9 @@ reschedules; calibrax only submits.
   a timeout kills that simulation only.
 * Cores are reserved through Dask worker resources: every worker offers ``cores`` units of the
   resource ``cores`` and a simulation asks for ``spec.numerics.threads`` of them, so a worker is
-  never oversubscribed by multi-threaded engines.
+  never oversubscribed by multi-threaded engines. Likewise GPUs: a worker started with ``gpus``
+  offers that many units of the resource ``GPU``, and a simulation on ``numerics.device: cuda``
+  asks for one (a scheduler given by ``address`` needs workers started with ``--resources GPU=1``).
 * A worker that dies mid-simulation has its simulation rescheduled by the scheduler, up to
   ``retries`` times (``distributed.scheduler.allowed-failures``; set on the scheduler calibrax
   starts, the scheduler's own setting for ``address``); the orphaned simulation quits without
@@ -30,10 +32,16 @@ from calibrax.errors import ConfigError, SimulationFailed
 CLUSTERS = ("local", "slurm", "pbs")
 
 
-def _job_options(cores: int, memory: str | None, walltime: str | None, queue: str | None, account: str | None,
-                 job_extra_directives: list[str] | None) -> dict[str, Any]:
+def _resources(cores: int, gpus: int) -> dict[str, int]:
+    """The Dask resources one worker offers: ``cores``, and ``GPU`` where it has GPUs."""
+    return {"cores": cores, **({"GPU": gpus} if gpus else {})}
+
+
+def _job_options(cores: int, gpus: int, memory: str | None, walltime: str | None, queue: str | None,
+                 account: str | None, job_extra_directives: list[str] | None) -> dict[str, Any]:
+    offer = ",".join(f"{k}={v}" for k, v in _resources(cores, gpus).items())
     out: dict[str, Any] = {"cores": cores, "processes": 1, "memory": memory,
-                           "worker_extra_args": ["--resources", f"cores={cores}"]}
+                           "worker_extra_args": ["--resources", offer]}
     for key, value in (("walltime", walltime), ("queue", queue), ("account", account),
                        ("job_extra_directives", job_extra_directives)):
         if value:
@@ -46,12 +54,12 @@ class DaskExecutor:
 
     name = "dask"
     OPTIONS = {"address": str, "cluster": Option(str, choices=tuple(CLUSTERS)), "workers": Option(int, low=1),
-               "cores": Option(int, low=1), "memory": str, "walltime": str, "queue": str, "account": str,
+               "cores": Option(int, low=1), "gpus": Option(int, low=0), "memory": str, "walltime": str, "queue": str, "account": str,
                "job_extra_directives": list, "log_directory": str, "timeout_s": Option(float, low=0.0, low_open=True),
                "retries": Option(int, low=0)}
 
     def __init__(self, address: str | None = None, cluster: str | None = None, workers: int = 2, cores: int = 1,
-                 memory: str | None = None, walltime: str | None = None, queue: str | None = None,
+                 gpus: int = 0, memory: str | None = None, walltime: str | None = None, queue: str | None = None,
                  account: str | None = None, job_extra_directives: list[str] | None = None,
                  log_directory: str | None = None, timeout_s: float | None = None, retries: int = 2) -> None:
         import importlib.util
@@ -67,8 +75,8 @@ class DaskExecutor:
             raise ConfigError("executor.address", f"must look like tcp://HOST:PORT, got {address!r}")
         if cluster in ("slurm", "pbs") and not memory:
             raise ConfigError("executor.memory", f"is required for cluster {cluster} (e.g. '8GB' per job)")
-        self.address, self.cluster_kind, self.workers, self.cores = address, cluster, workers, cores
-        self.job = _job_options(cores, memory, walltime, queue, account, job_extra_directives)
+        self.address, self.cluster_kind, self.workers, self.cores, self.gpus = address, cluster, workers, cores, gpus
+        self.job = _job_options(cores, gpus, memory, walltime, queue, account, job_extra_directives)
         if log_directory:
             self.job["log_directory"] = log_directory  # where the batch system writes the jobs' output
         self.timeout_s, self.retries = timeout_s, retries
@@ -87,7 +95,7 @@ class DaskExecutor:
             from dask.distributed import LocalCluster
 
             return LocalCluster(n_workers=self.workers, threads_per_worker=self.cores, processes=True,
-                                resources={"cores": self.cores}, dashboard_address=None)
+                                resources=_resources(self.cores, self.gpus), dashboard_address=None)
         import dask_jobqueue
 
         cls = dask_jobqueue.SLURMCluster if self.cluster_kind == "slurm" else dask_jobqueue.PBSCluster
@@ -132,7 +140,7 @@ class DaskExecutor:
         key = f"calibrax-p{task.point_id}-{uuid.uuid4().hex[:8]}"
         timeout = task.timeout_s if task.timeout_s is not None else self.timeout_s
         dask_future = client.submit(run_isolated, task, timeout, key=key, pure=False,
-                                    resources={"cores": task.threads})
+                                    resources=_resources(task.threads, task.gpus))
         result: cf.Future = cf.Future()
         # a Dask client does not see when a worker takes a task: the campaign counts it as started
         # once it is handed to the cluster, whose scheduler queues it

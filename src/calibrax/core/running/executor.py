@@ -44,6 +44,11 @@ class SimulationTask:
         """Cores the simulation uses (numba threads, MPI ranks, YADE threads)."""
         return self.spec.numerics.threads
 
+    @property
+    def gpus(self) -> int:
+        """GPUs the simulation uses: 1 on ``numerics.device: cuda``, else 0."""
+        return 1 if self.spec.numerics.device == "cuda" else 0
+
 
 @runtime_checkable
 class Executor(Protocol):

@@ -29,7 +29,8 @@ ADDED_SPEC_FIELDS: dict[tuple[str, str], Any] = {("material", "bond_number"): 0.
                                                   ("geometry", "sector"): 1,
                                                   ("geometry", "core_radius"): None,
                                                   ("procedure", "branches"): False,
-                                                  ("procedure", "peak_noise_correction"): 0.0}
+                                                  ("procedure", "peak_noise_correction"): 0.0,
+                                                  ("numerics", "device"): "cpu"}
 
 
 #: the declarations that many fields share (:class:`~calibrax.core.sheartest.fields.FieldInfo`)
@@ -241,6 +242,8 @@ class Numerics:
         sample_interval: time between recorded samples of the time series, s.
         seed: random seed of the packing; same seed and thread count → identical result.
         threads: threads (or MPI ranks) the backend may use.
+        device: where the backend steps the particles: ``cpu``, or ``cuda`` (a CUDA GPU; backends
+            with the capability ``cuda``).
     """
 
     dt_fraction: float = declared(0.05, symbol="Δt/Δt_crit", low=0.0, high=1.0, low_open=True)
@@ -248,6 +251,7 @@ class Numerics:
     sample_interval: float = declared(2.0e-4, unit="s", symbol="Δt_sample", low=0.0, low_open=True)
     seed: int = declared(0, symbol="seed", low=0, integer=True)
     threads: int = declared(1, symbol="threads", low=1, integer=True)
+    device: Literal["cpu", "cuda"] = declared("cpu", unit="", capability="cuda", off="cpu")
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,8 @@ def validate_spec(spec: "ShearCellSpec", min_particles: int = 50) -> "ShearCellS
     _validate_sector(spec)
     if g.blade_height >= g.fill_height:
         raise SpecError("geometry.blade_height", "must be smaller than the fill height")
+    if spec.numerics.device not in ("cpu", "cuda"):
+        raise SpecError("numerics.device", f"must be cpu or cuda, got {spec.numerics.device!r}")
     sd = spec.size_distribution
     if sd.kind not in ("mono", "lognormal", "table"):
         raise SpecError("size_distribution.kind", f"must be mono, lognormal or table, got {sd.kind!r}")

@@ -1,0 +1,402 @@
+"""numba_dem's CUDA path (``numerics.device: cuda``): the CPU path's physics, compiled for the GPU.
+
+One source of the physics, two compilations. The kernels here hold no physics of their own: each
+thread calls the very ``njit`` functions the CPU path's parallel loops call, which Numba compiles a
+second time as CUDA device functions:
+
+* :func:`~calibrax_numba_dem.engine.pair_row` (one thread per owner particle): the contact law of
+  :mod:`contact` on the half neighbour lists, the partner's share left in the pair buffer;
+* :func:`~calibrax_numba_dem.engine.gather_row` (one thread per particle): partner shares, the walls
+  of :mod:`geometry` (vessel, base, ribs, bladed head, the sector's core), gravity, kick and drift;
+* :func:`~calibrax_numba_dem.engine.finish_step` and :func:`~calibrax_numba_dem.geometry.element_directions`
+  (one block): the head's servo (:mod:`servo`), its load accumulators and the blades' directions,
+  after a fixed-order reduction of the particles' loads (deterministic: the same tree whatever the
+  grid).
+
+The state (particles, pair lists and their history, wall slots, head) stays on the device while it
+steps. Steps are queued in chunks of :data:`STEPS_PER_SYNC` with one synchronisation per chunk: the
+head kernel raises a stop flag when a particle has moved half the skin since the last list build,
+the kernels queued after it return at once, and the host rebuilds the lists, then goes on. The list
+build itself is the CPU path's (:func:`~calibrax_numba_dem.engine.rebuild`: the sector's wrap, the
+cell-list search, the history carried over) on the host: the positions and the pair history go
+down and the new lists come up once per build (every ~10–100 steps). That copy is the first thing
+to move onto the device if a GPU's profile shows it dominates (docs/explanation/numba-dem-cuda.md).
+
+Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, what the tests and CI run on a machine
+without a GPU) the kernels run on the CPU as Python, thread by thread; the physics functions they
+call then run as the CPU path's compiled code on the simulator's arrays (:func:`_device`), so the
+simulator checks the CUDA path's launches, indexing, reduction, stop flag and host rebuilds, and
+:func:`compile_ptx` checks that every kernel compiles for a real GPU.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numba
+import numpy as np
+from numba import cuda
+
+from .engine import DEMSystem, finish_step, gather_row, max_displacement2, pair_row
+from .geometry import element_directions
+from .layout import (P_BETA, P_COH, P_DT, P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SECTOR,
+                     P_SKIN)
+
+#: whether Numba's CUDA simulator stands in for a GPU (NUMBA_ENABLE_CUDASIM=1)
+SIMULATOR = bool(numba.config.ENABLE_CUDASIM)
+#: threads per block of the per-particle kernels
+THREADS_PER_BLOCK = 128
+#: threads of the one block that reduces the particles' loads (a power of two; two under the
+#: simulator, which starts a Python thread for every thread of every launch)
+REDUCE_THREADS = 2 if SIMULATOR else 256
+#: steps queued between two synchronisations with the host
+STEPS_PER_SYNC = 64
+#: columns of the per-particle loads: upward force on the head (N), the head's resisting torque
+#: (N·m), the base's upward force (N), squared displacement since the last list build (m²)
+LOAD_COLUMNS = 4
+#: slots of the status array: the stop flag (a list build is due) and the steps done in this chunk
+S_STOP = 0
+S_DONE = 1
+
+
+def cuda_available() -> bool:
+    """Whether a CUDA GPU (or the simulator) can run the CUDA path here."""
+    try:
+        return bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 — a broken driver install is "no GPU" too
+        return False
+
+
+def threads_per_block(n: int) -> int:
+    """Threads per block of the per-particle kernels for ``n`` particles: THREADS_PER_BLOCK, or
+    fewer for a small system (whole warps on a GPU, exactly ``n`` under the simulator)."""
+    if SIMULATOR:
+        return max(1, min(THREADS_PER_BLOCK, n))
+    return max(32, min(THREADS_PER_BLOCK, 32 * ((n + 31) // 32)))
+
+
+def _device(fn):
+    """``fn`` as the kernels call it. On a GPU the ``njit`` dispatcher itself (Numba compiles it as
+    a device function); under the simulator, a call of its compiled CPU code on the numpy arrays
+    behind the simulator's in-kernel arrays."""
+    if not SIMULATOR:
+        return fn
+
+    def call(*args):
+        return fn(*[_unwrap(a) for a in args])
+
+    return call
+
+
+def _unwrap(arg):
+    item = getattr(arg, "_item", None) if not isinstance(arg, (int, float, np.ndarray)) else None
+    return arg if item is None else item._ary
+
+
+_pair_row = _device(pair_row)
+_gather_row = _device(gather_row)
+_finish_step = _device(finish_step)
+_element_directions = _device(element_directions)
+
+
+@cuda.jit
+def pair_kernel(status, x, v, w, rad, mass, start, pj, pimg, hist, rhist, pf, fo, params):
+    """:func:`~calibrax_numba_dem.engine.pair_row` of every particle, one thread each (no-op once
+    the stop flag is up). Shapes as :func:`~calibrax_numba_dem.engine.pair_forces`."""
+    if status[S_STOP] != 0:
+        return
+    i = cuda.grid(1)
+    if i >= x.shape[0]:
+        return
+    opening = params[P_SECTOR]
+    _pair_row(i, x, v, w, rad, mass, start, pj, pimg, hist, rhist, pf, fo, params[P_DT], params[P_ESTAR],
+              params[P_GSTAR], params[P_BETA], params[P_MU], params[P_MUR], params[P_COH], math.cos(opening),
+              math.sin(opening))
+
+
+@cuda.jit
+def gather_kernel(status, x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs, wid,
+                  whist, wrhist, x_build, kick, loads):
+    """:func:`~calibrax_numba_dem.engine.gather_row` of every particle, one thread each, its loads
+    into ``loads`` (N, LOAD_COLUMNS) (no-op once the stop flag is up)."""
+    if status[S_STOP] != 0:
+        return
+    i = cuda.grid(1)
+    if i >= x.shape[0]:
+        return
+    fh, th, fb, d2 = _gather_row(i, x, v, w, f, t, rad, mass, inertia, rstart, rpair, pf, fo, params, head, dirs,
+                                 wid, whist, wrhist, x_build, kick, params[P_DT], params[P_GZ])
+    loads[i, 0] = fh
+    loads[i, 1] = th
+    loads[i, 2] = fb
+    loads[i, 3] = d2
+
+
+@cuda.jit
+def head_kernel(status, loads, params, head, dirs, limit):
+    """One block of REDUCE_THREADS threads: the particles' loads summed (displacements: their
+    maximum) in a fixed order, then the head's step (:func:`~calibrax_numba_dem.engine.finish_step`),
+    the blades' directions for the next step, the step counted, and the stop flag raised when the
+    largest squared displacement exceeds ``limit`` (m²)."""
+    if status[S_STOP] != 0:
+        return
+    k = cuda.threadIdx.x
+    part = cuda.shared.array((REDUCE_THREADS, LOAD_COLUMNS), numba.float64)
+    n = loads.shape[0]
+    fh = 0.0
+    th = 0.0
+    fb = 0.0
+    d2 = 0.0
+    for i in range(k * n // REDUCE_THREADS, (k + 1) * n // REDUCE_THREADS):
+        fh += loads[i, 0]
+        th += loads[i, 1]
+        fb += loads[i, 2]
+        if loads[i, 3] > d2:  # not max(): see compile_ptx
+            d2 = loads[i, 3]
+    part[k, 0] = fh
+    part[k, 1] = th
+    part[k, 2] = fb
+    part[k, 3] = d2
+    cuda.syncthreads()
+    half = REDUCE_THREADS // 2
+    while half > 0:
+        if k < half:
+            part[k, 0] += part[k + half, 0]
+            part[k, 1] += part[k + half, 1]
+            part[k, 2] += part[k + half, 2]
+            if part[k + half, 3] > part[k, 3]:
+                part[k, 3] = part[k + half, 3]
+        cuda.syncthreads()
+        half //= 2
+    if k == 0:
+        _finish_step(head, part[0, 0], part[0, 1], part[0, 2], params[P_DT])
+        _element_directions(params, head, dirs)
+        status[S_DONE] += 1
+        if part[0, 3] > limit:
+            status[S_STOP] = 1
+
+
+@cuda.jit
+def directions_kernel(params, head, dirs):
+    """The blades' and ribs' directions from the head's angle (one thread), before a chunk."""
+    if cuda.grid(1) == 0:
+        _element_directions(params, head, dirs)
+
+
+#: the host arrays of :class:`DEMSystem` that live on the device too, by how a list build treats
+#: them: read and written by the wrap of a sector only, read for the history carried over, written
+_WRAPPED = ("v", "w", "wid", "whist", "wrhist")
+_CARRIED = ("hist", "rhist")
+_LISTS = ("start", "pj", "pimg", "rstart", "rpair", "x_build")
+_CONSTANT = ("rad", "mass", "inertia")
+
+
+class CudaDEMSystem:
+    """:class:`~calibrax_numba_dem.engine.DEMSystem`'s interface, stepping on a CUDA device.
+
+    The host keeps a :class:`DEMSystem` (``host``) for the list builds and as the mirror of the
+    device's state. ``params`` and ``head`` are the host's arrays: change them between calls of
+    :meth:`advance`, which sends them up and brings the head back. ``x``, ``v`` and ``w`` come down
+    when read (and go back up at the next :meth:`advance`, in case they were changed); ``f`` and
+    ``t`` come down when read.
+    """
+
+    def __init__(self, x: np.ndarray, rad: np.ndarray, density: float, params: np.ndarray,
+                 head: np.ndarray | None = None, v: np.ndarray | None = None, pair_capacity: int = 0,
+                 host: DEMSystem | None = None):
+        if not cuda_available():
+            from calibrax.errors import SpecError
+
+            raise SpecError("numerics.device", "cuda needs a CUDA GPU, and none is visible here "
+                            "(numba.cuda.is_available() is False); use cpu")
+        self.host = host if host is not None else DEMSystem(x, rad, density, params, head=head, v=v,
+                                                            pair_capacity=pair_capacity)
+        h = self.host
+        self.params = h.params
+        self.head = h.head
+        self._d: dict = {}
+        for name in ("x", *_WRAPPED, *_CARRIED, *_LISTS, *_CONSTANT, "f", "t"):
+            self._d[name] = cuda.to_device(getattr(h, name))
+        self._alloc_scratch()
+        self._d["loads"] = cuda.device_array((h.n, LOAD_COLUMNS))
+        self._d["fo"] = cuda.device_array((h.n, 6))
+        self._d["dirs"] = cuda.to_device(np.zeros((max(1, int(h.params[P_NBLADES]) + int(h.params[P_NRIBS])), 2)))
+        self._d["params"] = cuda.to_device(h.params)
+        self._d["head"] = cuda.to_device(h.head)
+        # a build is due at once unless the host's lists are current (x_build far away forces one)
+        due = max_displacement2(h.x, h.x_build) > self._limit()
+        self._d["status"] = cuda.to_device(np.array([1 if due else 0, 0], dtype=np.int64))
+        self._fresh: set[str] = {"x", *_WRAPPED, *_CARRIED, "f", "t"}
+        self._lent: set[str] = set()
+        self._started = host is not None and getattr(host, "_started", False)
+
+    # ------------------------------------------------------------------------------------ state
+    def _alloc_scratch(self) -> None:
+        self._d["pf"] = cuda.device_array_like(self.host.pf)
+
+    def _limit(self) -> float:
+        skin = self.host.params[P_SKIN]
+        return 0.25 * skin * skin
+
+    def _down(self, name: str) -> np.ndarray:
+        """The host's copy of device array ``name``, brought down unless it is already current."""
+        if name not in self._fresh:
+            self._d[name].copy_to_host(getattr(self.host, name))
+            self._fresh.add(name)
+        return getattr(self.host, name)
+
+    def _lend(self, name: str) -> np.ndarray:
+        self._lent.add(name)
+        return self._down(name)
+
+    x = property(lambda self: self._lend("x"), doc="Positions, shape (N, 3), m.")
+    v = property(lambda self: self._lend("v"), doc="Velocities, shape (N, 3), m/s (half a step behind x).")
+    w = property(lambda self: self._lend("w"), doc="Angular velocities, shape (N, 3), rad/s.")
+    f = property(lambda self: self._down("f"), doc="Forces of the last step, shape (N, 3), N (read only).")
+    t = property(lambda self: self._down("t"), doc="Torques of the last step, shape (N, 3), N·m (read only).")
+    rad = property(lambda self: self.host.rad)
+    mass = property(lambda self: self.host.mass)
+    inertia = property(lambda self: self.host.inertia)
+    n = property(lambda self: self.host.n, doc="Particle count.")
+    pair_count = property(lambda self: self.host.pair_count, doc="Pairs in the current half lists.")
+    list_builds = property(lambda self: self.host.list_builds, doc="Neighbour-list builds so far.")
+
+    def _send_lent(self) -> None:
+        """Send the arrays lent out since the last step back up (the caller may have changed them);
+        a moved particle may make a list build due, as on the CPU path."""
+        for name in self._lent:
+            self._d[name].copy_to_device(getattr(self.host, name))
+        if "x" in self._lent and max_displacement2(self.host.x, self.host.x_build) > self._limit():
+            self._d["status"].copy_to_device(np.array([1, 0], dtype=np.int64))
+        self._lent.clear()
+
+    def _pull_all(self) -> None:
+        """Bring every array the host mirrors down (for a snapshot)."""
+        for name in ("x", *_WRAPPED, *_CARRIED, "f", "t"):
+            self._down(name)
+
+    # ---------------------------------------------------------------------------------- builds
+    def _rebuild(self) -> None:
+        """The CPU path's list build on the host, between two chunks."""
+        h = self.host
+        wraps = h.params[P_SECTOR] > 0.0
+        for name in ("x", *_CARRIED, *(_WRAPPED if wraps else ())):
+            self._down(name)
+        capacity = h.pj.shape[0]
+        total = h.rebuild_lists()
+        while total > h.pj.shape[0]:
+            h._alloc_pairs(int(total * 1.5) + 64)
+            total = h.rebuild_lists()
+        h.list_builds += 1
+        if h.pj.shape[0] != capacity:
+            for name in (*_CARRIED, *_LISTS):
+                self._d[name] = cuda.to_device(getattr(h, name))
+            self._alloc_scratch()
+        else:
+            for name in (*_CARRIED, *_LISTS):
+                self._d[name].copy_to_device(getattr(h, name))
+        for name in ("x", *_WRAPPED) if wraps else ():
+            self._d[name].copy_to_device(getattr(h, name))
+        self._fresh.difference_update(("f", "t"))
+
+    def rebuild_lists(self) -> int:
+        """Rebuild the neighbour lists now, as :meth:`advance` does when one is due; returns the
+        pair count."""
+        self._send_lent()
+        self._rebuild()
+        self._d["status"].copy_to_device(np.array([0, 0], dtype=np.int64))
+        return self.host.pair_count
+
+    # -------------------------------------------------------------------------------- stepping
+    def advance(self, nsteps: int) -> None:
+        """Advance ``nsteps`` time steps on the device (the lists rebuilt whenever one is due)."""
+        if nsteps <= 0:
+            return
+        d = self._d
+        self._send_lent()
+        d["params"].copy_to_device(self.params)
+        d["head"].copy_to_device(self.head)
+        n = self.host.n
+        per_block = threads_per_block(n)
+        blocks = (n + per_block - 1) // per_block
+        limit = self._limit()
+        status = d["status"].copy_to_host()
+        done = 0
+        directions_kernel[1, 1](d["params"], d["head"], d["dirs"])
+        while done < nsteps:
+            if status[S_STOP]:
+                self._rebuild()
+            d["status"].copy_to_device(np.array([0, 0], dtype=np.int64))
+            for _ in range(min(STEPS_PER_SYNC, nsteps - done)):
+                kick = 1.0 if self._started else 0.5
+                self._started = True
+                pair_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["rad"], d["mass"],
+                                                       d["start"], d["pj"], d["pimg"], d["hist"], d["rhist"], d["pf"],
+                                                       d["fo"], d["params"])
+                gather_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["f"], d["t"],
+                                                         d["rad"], d["mass"], d["inertia"], d["rstart"], d["rpair"],
+                                                         d["pf"], d["fo"], d["params"], d["head"], d["dirs"],
+                                                         d["wid"], d["whist"], d["wrhist"], d["x_build"], kick,
+                                                         d["loads"])
+                head_kernel[1, REDUCE_THREADS](d["status"], d["loads"], d["params"], d["head"], d["dirs"], limit)
+            status = d["status"].copy_to_host()
+            done += int(status[S_DONE])
+            self._fresh.clear()
+        d["head"].copy_to_host(self.head)
+        self._fresh.clear()
+
+    def take_accumulators(self) -> tuple[float, float, float, int]:
+        """As :meth:`DEMSystem.take_accumulators` (the head is on the host between steps)."""
+        return self.host.take_accumulators()
+
+    def kinetic_energy(self) -> float:
+        """Translational + rotational kinetic energy, J."""
+        self._down("v")
+        self._down("w")
+        return self.host.kinetic_energy()
+
+    def __deepcopy__(self, memo) -> "CudaDEMSystem":
+        """A copy of the whole state on the device (through the host), for a fork of the test."""
+        self._send_lent()
+        self._pull_all()
+        status = self._d["status"].copy_to_host()
+        host = copy.deepcopy(self.host, memo)
+        host._started = self._started
+        twin = CudaDEMSystem(host.x, host.rad, 1.0, host.params, host=host)
+        twin._d["status"].copy_to_device(status)
+        return twin
+
+
+def compile_ptx(compute_capability: tuple[int, int] = (9, 0)) -> dict[str, int]:
+    """Compile every kernel for a real GPU of ``compute_capability`` (no GPU needed: libNVVM from a
+    CUDA toolkit), with the argument types the CUDA path launches them with. Returns the PTX size
+    of each kernel, characters; raises Numba's error where a kernel does not compile. Must run in a
+    process without the simulator."""
+    if SIMULATOR:
+        raise RuntimeError("compile_ptx needs the real CUDA target: unset NUMBA_ENABLE_CUDASIM")
+    from numba import float64, int8, int64
+
+    f1, f2, i1, i2 = float64[::1], float64[:, ::1], int64[::1], int64[:, ::1]
+    signatures = {
+        "pair_kernel": (pair_kernel, (i1, f2, f2, f2, f1, f1, i1, i1, int8[::1], f2, f2, f2, f2, f1)),
+        "gather_kernel": (gather_kernel, (i1, f2, f2, f2, f2, f2, f1, f1, f1, i1, i1, f2, f2, f1, f1, f2, i2, f2,
+                                          f2, f2, float64, f2)),
+        "head_kernel": (head_kernel, (i1, f2, f1, f1, f2, float64)),
+        "directions_kernel": (directions_kernel, (f1, f1, f2)),
+    }
+    from types import SimpleNamespace
+    from unittest import mock
+
+    import numba.cuda.dispatcher
+
+    # Numba asks the current device for its compute capability when it compiles a device function
+    # that is not inlined (element_directions, the servo): with no GPU here, one of
+    # ``compute_capability`` stands in for it, for this compilation only
+    device = SimpleNamespace(compute_capability=compute_capability)
+    out = {}
+    with mock.patch.object(numba.cuda.dispatcher, "get_current_device", lambda: device):
+        for name, (kernel, sig) in signatures.items():
+            ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=compute_capability)
+            out[name] = len(ptx)
+    return out
