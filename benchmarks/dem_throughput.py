@@ -21,6 +21,10 @@ that they share the machine's load); the table gives the median over rounds of t
 particle-step and the median of the per-round ratios to LIGGGHTS, and the load average.
 Engines not installed are skipped (``--no-liggghts``, ``--no-yade`` skip them anyway).
 
+``--device cuda`` adds numba_dem's CUDA path (:mod:`calibrax_numba_dem.cuda_engine`) on the same
+states, rows ``numba_dem cuda …``: the kernels are compiled and the state copied up before the
+clock starts, and the clock stops when the steps are done on the device (the head comes back).
+
 Example: python benchmarks/dem_throughput.py --preset quick --steps 2000 --rounds 3
 """
 
@@ -73,6 +77,18 @@ def time_numba(system: DEMSystem, steps: int, threads: int) -> float:
         t0 = time.perf_counter()
         s.advance(steps)
         return (time.perf_counter() - t0) / (steps * s.n) * 1e6
+
+
+def time_cuda(system: DEMSystem, steps: int) -> float:
+    """µs per particle-step of ``steps`` steps of numba_dem's CUDA path from a copy of ``system``
+    (compiled and copied to the device beforehand, untimed)."""
+    from calibrax_numba_dem.cuda_engine import CudaDEMSystem
+
+    gpu = CudaDEMSystem(None, None, 1.0, None, host=copy.deepcopy(system))
+    gpu.advance(2)  # the first launch compiles the kernels
+    t0 = time.perf_counter()
+    gpu.advance(steps)  # returns once the head is back from the device: every step is done
+    return (time.perf_counter() - t0) / (steps * gpu.n) * 1e6
 
 
 # ----------------------------------------------------------------------------------- LIGGGHTS
@@ -242,6 +258,8 @@ def main() -> None:
     ap.add_argument("--rounds", "--repeats", type=int, default=3, dest="rounds",
                     help="interleaved rounds, medians reported (default 3)")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="numba thread counts (default 1 2)")
+    ap.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
+                    help="cuda: time numba_dem's CUDA path too, on the same states (needs a GPU)")
     ap.add_argument("--liggghts", action="store_true", help="fail if LIGGGHTS is not installed")
     ap.add_argument("--no-liggghts", action="store_true", help="skip LIGGGHTS")
     ap.add_argument("--no-yade", action="store_true", help="skip YADE")
@@ -265,6 +283,8 @@ def main() -> None:
     for _ in range(args.rounds):
         for t in threads:
             rows.setdefault(f"numba_dem {t} thr bed", []).append(time_numba(bed, args.steps, t))
+        if args.device == "cuda":
+            rows.setdefault("numba_dem cuda bed", []).append(time_cuda(bed, args.steps))
         if "liggghts" in engines:
             us, versions["liggghts"] = time_liggghts(engines["liggghts"], spec, bed, args.warmup, args.steps)
             rows.setdefault("LIGGGHTS 1 rank bed", []).append(us)
@@ -274,6 +294,8 @@ def main() -> None:
         if sheared is not None:
             for t in threads:
                 rows.setdefault(f"numba_dem {t} thr preshear", []).append(time_numba(sheared, args.steps, t))
+            if args.device == "cuda":
+                rows.setdefault("numba_dem cuda preshear", []).append(time_cuda(sheared, args.steps))
             if "liggghts" in engines:
                 us, versions["liggghts"] = time_liggghts(engines["liggghts"], spec, sheared, args.warmup,
                                                          args.steps, preshear=True)

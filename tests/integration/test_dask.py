@@ -124,3 +124,23 @@ def test_dask_executor_options_are_validated(tmp_path):
         path = write_double_campaign(tmp_path, executor=executor)
         proc = calibrax_cli("run", str(path), "--check")
         assert proc.returncode == 2 and message in proc.stderr, (executor, proc.stderr)
+
+
+def test_gpu_workers_offer_the_gpu_resource_and_a_cuda_simulation_asks_for_one(tmp_path):
+    """``gpus`` per worker is offered as the Dask resource GPU; a simulation on
+    ``numerics.device: cuda`` asks for one of them beside its cores, a CPU one for none."""
+    from calibrax.core.running.dask_executor import _resources
+    from calibrax.core.running.executor import SimulationTask
+    from calibrax.core.sheartest import ShearCellSpec
+
+    executor = {"name": "dask", "cluster": "slurm", "workers": 2, "cores": 4, "gpus": 1, "memory": "16GB",
+                "job_extra_directives": ["--gres=gpu:1"]}
+    path = write_double_campaign(tmp_path, executor=executor)
+    config = load_config(path)
+    script = get_manager().create("executor", "dask", **config.executor_options).job_script()
+    assert "--resources cores=4,GPU=1" in script and "#SBATCH --gres=gpu:1" in script, script
+    spec = ShearCellSpec.preset("tiny")
+    on_gpu = SimulationTask(0, "numba_dem", spec.replace(numerics={"device": "cuda"}), tmp_path)
+    on_cpu = SimulationTask(1, "numba_dem", spec, tmp_path)
+    assert _resources(on_gpu.threads, on_gpu.gpus) == {"cores": 1, "GPU": 1}
+    assert _resources(on_cpu.threads, on_cpu.gpus) == {"cores": 1}

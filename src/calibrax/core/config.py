@@ -436,10 +436,12 @@ def _acquisition(acq_raw: Any, multi_fidelity: bool) -> tuple[str, int, str, dic
 def _executor(raw: Any) -> tuple[str, dict[str, Any]]:
     """``executor``: its name (default local) and options, ``workers`` ≥ 1 and ``timeout_s`` > 0."""
     executor, exec_options = _named("executor", raw, "executor", default="local")
-    if "workers" in exec_options and exec_options["workers"] < 1:
-        raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {exec_options['workers']}")
-    if exec_options.get("timeout_s") is not None and exec_options["timeout_s"] <= 0:
-        raise ConfigError("executor.timeout_s", f"must be > 0 s, got {exec_options['timeout_s']}")
+    workers = exec_options.get("workers")
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
+        raise ConfigError("executor.workers", f"must be an integer ≥ 1, got {workers!r}")
+    timeout = exec_options.get("timeout_s")
+    if timeout is not None and (not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or timeout <= 0):
+        raise ConfigError("executor.timeout_s", f"must be a number > 0 s, got {timeout!r}")
     return executor, exec_options
 
 

@@ -13,14 +13,13 @@ second time as CUDA device functions:
   after a fixed-order reduction of the particles' loads (deterministic: the same tree whatever the
   grid).
 
-The state (particles, pair lists and their history, wall slots, head) stays on the device while it
-steps. Steps are queued in chunks of :data:`STEPS_PER_SYNC` with one synchronisation per chunk: the
-head kernel raises a stop flag when a particle has moved half the skin since the last list build,
-the kernels queued after it return at once, and the host rebuilds the lists, then goes on. The list
-build itself is the CPU path's (:func:`~calibrax_numba_dem.engine.rebuild`: the sector's wrap, the
-cell-list search, the history carried over) on the host: the positions and the pair history go
-down and the new lists come up once per build (every ~10–100 steps). That copy is the first thing
-to move onto the device if a GPU's profile shows it dominates (docs/explanation/numba-dem-cuda.md).
+The state (particles, pair lists and their history, wall slots, head) stays on the device for the
+whole test. Steps are queued in chunks of :data:`STEPS_PER_SYNC` with one synchronisation per chunk:
+the head kernel raises a stop flag when a particle has moved half the skin since the last list
+build, the kernels queued after it return at once, and the host launches a list build on the device
+(:mod:`cuda_lists`: the CPU path's wrap and row scan, the same lists in the same order), then goes
+on. What comes down is what is read: the head after each call, the particles when the shear test's
+checks read them.
 
 Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, what the tests and CI run on a machine
 without a GPU) the kernels run on the CPU as Python, thread by thread; the physics functions they
@@ -184,22 +183,26 @@ def directions_kernel(params, head, dirs):
         _element_directions(params, head, dirs)
 
 
-#: the host arrays of :class:`DEMSystem` that live on the device too, by how a list build treats
-#: them: read and written by the wrap of a sector only, read for the history carried over, written
-_WRAPPED = ("v", "w", "wid", "whist", "wrhist")
-_CARRIED = ("hist", "rhist")
-_LISTS = ("start", "pj", "pimg", "rstart", "rpair", "x_build")
+#: the arrays of :class:`DEMSystem` that the device holds and the host mirrors: the particles, the
+#: wall slots, the pair lists and their history, the reverse index, the positions at the last build
+_STATE = ("x", "v", "w", "wid", "whist", "wrhist", "start", "pj", "pimg", "hist", "rhist", "rstart", "rpair",
+          "x_build")
+#: the pair-indexed ones among them, with a capacity that grows when the lists overflow
+_PAIRED = ("pj", "pimg", "hist", "rhist", "rpair")
+#: the list build's second set of lists (the new lists are written there, then swapped in)
+_SCRATCH = ("start", "pj", "pimg", "hist", "rhist")
 _CONSTANT = ("rad", "mass", "inertia")
 
 
 class CudaDEMSystem:
     """:class:`~calibrax_numba_dem.engine.DEMSystem`'s interface, stepping on a CUDA device.
 
-    The host keeps a :class:`DEMSystem` (``host``) for the list builds and as the mirror of the
-    device's state. ``params`` and ``head`` are the host's arrays: change them between calls of
-    :meth:`advance`, which sends them up and brings the head back. ``x``, ``v`` and ``w`` come down
-    when read (and go back up at the next :meth:`advance`, in case they were changed); ``f`` and
-    ``t`` come down when read.
+    The whole state lives on the device, the neighbour-list builds included
+    (:class:`~calibrax_numba_dem.cuda_lists.DeviceLists`). The host keeps a :class:`DEMSystem`
+    (``host``) as the mirror it reads into. ``params`` and ``head`` are the host's arrays: change
+    them between calls of :meth:`advance`, which sends them up and brings the head back. ``x``,
+    ``v`` and ``w`` come down when read (and go back up at the next :meth:`advance`, in case they
+    were changed); ``f`` and ``t`` come down when read.
     """
 
     def __init__(self, x: np.ndarray, rad: np.ndarray, density: float, params: np.ndarray,
@@ -210,13 +213,17 @@ class CudaDEMSystem:
 
             raise SpecError("numerics.device", "cuda needs a CUDA GPU, and none is visible here "
                             "(numba.cuda.is_available() is False); use cpu")
-        self.host = host if host is not None else DEMSystem(x, rad, density, params, head=head, v=v,
-                                                            pair_capacity=pair_capacity)
+        from .cuda_lists import DeviceLists
+
+        # the mirror owns its arrays (DEMSystem keeps a caller's contiguous array as its own)
+        self.host = host if host is not None else DEMSystem(
+            np.array(x, dtype=np.float64), rad, density, params, head=head,
+            v=None if v is None else np.array(v, dtype=np.float64), pair_capacity=pair_capacity)
         h = self.host
         self.params = h.params
         self.head = h.head
         self._d: dict = {}
-        for name in ("x", *_WRAPPED, *_CARRIED, *_LISTS, *_CONSTANT, "f", "t"):
+        for name in (*_STATE, *_CONSTANT, "f", "t"):
             self._d[name] = cuda.to_device(getattr(h, name))
         self._alloc_scratch()
         self._d["loads"] = cuda.device_array((h.n, LOAD_COLUMNS))
@@ -224,16 +231,33 @@ class CudaDEMSystem:
         self._d["dirs"] = cuda.to_device(np.zeros((max(1, int(h.params[P_NBLADES]) + int(h.params[P_NRIBS])), 2)))
         self._d["params"] = cuda.to_device(h.params)
         self._d["head"] = cuda.to_device(h.head)
+        self.lists = DeviceLists(h.n, 2.0 * float(np.max(h.rad)) + float(h.params[P_SKIN]), h.cell_size,
+                                 float(h.params[P_SKIN]))
+        self.total = h.pair_count
         # a build is due at once unless the host's lists are current (x_build far away forces one)
         due = max_displacement2(h.x, h.x_build) > self._limit()
         self._d["status"] = cuda.to_device(np.array([1 if due else 0, 0], dtype=np.int64))
-        self._fresh: set[str] = {"x", *_WRAPPED, *_CARRIED, "f", "t"}
+        self._fresh: set[str] = {*_STATE, "f", "t"}
         self._lent: set[str] = set()
         self._started = host is not None and getattr(host, "_started", False)
 
     # ------------------------------------------------------------------------------------ state
     def _alloc_scratch(self) -> None:
-        self._d["pf"] = cuda.device_array_like(self.host.pf)
+        """The pair buffer and the build's second set of lists, at the pair arrays' capacity."""
+        d = self._d
+        d["pf"] = cuda.device_array((d["pj"].shape[0], self.host.pf.shape[1]))
+        for name in _SCRATCH:
+            d[name + "2"] = cuda.device_array_like(d[name])
+
+    def _grow_pairs(self, capacity: int) -> None:
+        """Room for ``capacity`` pairs, the current lists kept (through the host: it is rare)."""
+        d = self._d
+        for name in _PAIRED:
+            old = d[name].copy_to_host()
+            new = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
+            new[:old.shape[0]] = old
+            d[name] = cuda.to_device(new)
+        self._alloc_scratch()
 
     def _limit(self) -> float:
         skin = self.host.params[P_SKIN]
@@ -242,7 +266,11 @@ class CudaDEMSystem:
     def _down(self, name: str) -> np.ndarray:
         """The host's copy of device array ``name``, brought down unless it is already current."""
         if name not in self._fresh:
-            self._d[name].copy_to_host(getattr(self.host, name))
+            h = self.host
+            if name in _PAIRED and getattr(h, name).shape[0] != self._d[name].shape[0]:
+                h._alloc_pairs(self._d[name].shape[0])
+                self._fresh.difference_update(_PAIRED)
+            self._d[name].copy_to_host(getattr(h, name))
             self._fresh.add(name)
         return getattr(self.host, name)
 
@@ -255,11 +283,12 @@ class CudaDEMSystem:
     w = property(lambda self: self._lend("w"), doc="Angular velocities, shape (N, 3), rad/s.")
     f = property(lambda self: self._down("f"), doc="Forces of the last step, shape (N, 3), N (read only).")
     t = property(lambda self: self._down("t"), doc="Torques of the last step, shape (N, 3), N·m (read only).")
+    wid = property(lambda self: self._down("wid"), doc="Wall slots' elements, shape (N, WALL_SLOTS) (read only).")
     rad = property(lambda self: self.host.rad)
     mass = property(lambda self: self.host.mass)
     inertia = property(lambda self: self.host.inertia)
     n = property(lambda self: self.host.n, doc="Particle count.")
-    pair_count = property(lambda self: self.host.pair_count, doc="Pairs in the current half lists.")
+    pair_count = property(lambda self: self.total, doc="Pairs in the current half lists.")
     list_builds = property(lambda self: self.host.list_builds, doc="Neighbour-list builds so far.")
 
     def _send_lent(self) -> None:
@@ -267,46 +296,38 @@ class CudaDEMSystem:
         a moved particle may make a list build due, as on the CPU path."""
         for name in self._lent:
             self._d[name].copy_to_device(getattr(self.host, name))
-        if "x" in self._lent and max_displacement2(self.host.x, self.host.x_build) > self._limit():
+        if "x" in self._lent and max_displacement2(self.host.x, self._down("x_build")) > self._limit():
             self._d["status"].copy_to_device(np.array([1, 0], dtype=np.int64))
         self._lent.clear()
 
-    def _pull_all(self) -> None:
-        """Bring every array the host mirrors down (for a snapshot)."""
-        for name in ("x", *_WRAPPED, *_CARRIED, "f", "t"):
+    def pull(self) -> DEMSystem:
+        """The host mirror with the whole state brought down (lists included)."""
+        for name in (*_STATE, "f", "t"):
             self._down(name)
+        self.host._started = self._started
+        return self.host
 
     # ---------------------------------------------------------------------------------- builds
     def _rebuild(self) -> None:
-        """The CPU path's list build on the host, between two chunks."""
-        h = self.host
-        wraps = h.params[P_SECTOR] > 0.0
-        for name in ("x", *_CARRIED, *(_WRAPPED if wraps else ())):
-            self._down(name)
-        capacity = h.pj.shape[0]
-        total = h.rebuild_lists()
-        while total > h.pj.shape[0]:
-            h._alloc_pairs(int(total * 1.5) + 64)
-            total = h.rebuild_lists()
-        h.list_builds += 1
-        if h.pj.shape[0] != capacity:
-            for name in (*_CARRIED, *_LISTS):
-                self._d[name] = cuda.to_device(getattr(h, name))
-            self._alloc_scratch()
-        else:
-            for name in (*_CARRIED, *_LISTS):
-                self._d[name].copy_to_device(getattr(h, name))
-        for name in ("x", *_WRAPPED) if wraps else ():
-            self._d[name].copy_to_device(getattr(h, name))
-        self._fresh.difference_update(("f", "t"))
+        """A list build on the device (the sector's wrap first), the pair arrays grown if needed."""
+        opening = float(self.params[P_SECTOR])
+        while True:
+            total = self.lists.build(self._d, self._d["params"], opening)
+            if total <= self._d["pj"].shape[0]:
+                break
+            self._grow_pairs(int(total * 1.5) + 64)
+        self.total = total
+        self.host.list_builds += 1
+        self._fresh.clear()
 
     def rebuild_lists(self) -> int:
         """Rebuild the neighbour lists now, as :meth:`advance` does when one is due; returns the
         pair count."""
         self._send_lent()
+        self._d["params"].copy_to_device(self.params)
         self._rebuild()
         self._d["status"].copy_to_device(np.array([0, 0], dtype=np.int64))
-        return self.host.pair_count
+        return self.total
 
     # -------------------------------------------------------------------------------- stepping
     def advance(self, nsteps: int) -> None:
@@ -332,19 +353,18 @@ class CudaDEMSystem:
                 kick = 1.0 if self._started else 0.5
                 self._started = True
                 pair_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["rad"], d["mass"],
-                                                       d["start"], d["pj"], d["pimg"], d["hist"], d["rhist"], d["pf"],
-                                                       d["fo"], d["params"])
+                                               d["start"], d["pj"], d["pimg"], d["hist"], d["rhist"], d["pf"],
+                                               d["fo"], d["params"])
                 gather_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["f"], d["t"],
-                                                         d["rad"], d["mass"], d["inertia"], d["rstart"], d["rpair"],
-                                                         d["pf"], d["fo"], d["params"], d["head"], d["dirs"],
-                                                         d["wid"], d["whist"], d["wrhist"], d["x_build"], kick,
-                                                         d["loads"])
+                                                 d["rad"], d["mass"], d["inertia"], d["rstart"], d["rpair"],
+                                                 d["pf"], d["fo"], d["params"], d["head"], d["dirs"],
+                                                 d["wid"], d["whist"], d["wrhist"], d["x_build"], kick,
+                                                 d["loads"])
                 head_kernel[1, REDUCE_THREADS](d["status"], d["loads"], d["params"], d["head"], d["dirs"], limit)
             status = d["status"].copy_to_host()
             done += int(status[S_DONE])
             self._fresh.clear()
         d["head"].copy_to_host(self.head)
-        self._fresh.clear()
 
     def take_accumulators(self) -> tuple[float, float, float, int]:
         """As :meth:`DEMSystem.take_accumulators` (the head is on the host between steps)."""
@@ -359,11 +379,9 @@ class CudaDEMSystem:
     def __deepcopy__(self, memo) -> "CudaDEMSystem":
         """A copy of the whole state on the device (through the host), for a fork of the test."""
         self._send_lent()
-        self._pull_all()
         status = self._d["status"].copy_to_host()
-        host = copy.deepcopy(self.host, memo)
-        host._started = self._started
-        twin = CudaDEMSystem(host.x, host.rad, 1.0, host.params, host=host)
+        host = copy.deepcopy(self.pull(), memo)
+        twin = CudaDEMSystem(None, None, 1.0, None, host=host)
         twin._d["status"].copy_to_device(status)
         return twin
 
@@ -385,6 +403,27 @@ def compile_ptx(compute_capability: tuple[int, int] = (9, 0)) -> dict[str, int]:
         "head_kernel": (head_kernel, (i1, f2, f1, f1, f2, float64)),
         "directions_kernel": (directions_kernel, (f1, f1, f2)),
     }
+    from numba import boolean
+
+    from . import cuda_lists as L
+
+    i8, f = int8[::1], float64
+    signatures.update({
+        "wrap_particles_kernel": (L.wrap_particles_kernel, (f2, f2, f2, i2, f2, f2, i1, f1)),
+        "wrap_pairs_kernel": (L.wrap_pairs_kernel, (i1, i1, i8, f2, f2, i1, f1)),
+        "near_faces_kernel": (L.near_faces_kernel, (f2, f, f, i1, i1)),
+        "images_kernel": (L.images_kernel, (f2, i1, i1, f, f2, i1, i1)),
+        "bounds_kernel": (L.bounds_kernel, (f2, int64, f, f1, i1, i1)),
+        "cell_count_kernel": (L.cell_count_kernel, (f2, int64, f1, i1, f, i1, i1)),
+        "claim_kernel": (L.claim_kernel, (i1, int64, i1, i1, i1)),
+        "sort_ranges_kernel": (L.sort_ranges_kernel, (i1, int64, i1)),
+        "row_kernel": (L.row_kernel, (f2, f2, i1, i1, f1, f, f1, i1, f, i1, i1, i1, i1, i8, f2, f2, i1, i1, i8, f2,
+                                      f2, i1, boolean)),
+        "scan_kernel": (L.scan_kernel, (i1, int64, i1)),
+        "zero_kernel": (L.zero_kernel, (i1, int64)),
+        "copy_rows_kernel": (L.copy_rows_kernel, (f2, f2)),
+        "partner_count_kernel": (L._partner_count_kernel, (i1, int64, i1)),
+    })
     from types import SimpleNamespace
     from unittest import mock
 

@@ -75,11 +75,22 @@ def bin_particles(x, cell_size):
     return lo, dims, counts, order
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def clamp(k, low, high):
+    """The integer k limited to [low, high] (a conditional, not min/max: the CUDA path compiles the
+    list build's functions too, see calibrax_numba_dem.cuda_engine.compile_ptx)."""
+    if k < low:
+        return low
+    if k > high:
+        return high
+    return k
+
+
+@njit(cache=True, inline="always")
 def _cell_index(px, py, pz, lo, dims, cell_size):
-    ix = min(max(int((px - lo[0]) / cell_size), 0), dims[0] - 1)
-    iy = min(max(int((py - lo[1]) / cell_size), 0), dims[1] - 1)
-    iz = min(max(int((pz - lo[2]) / cell_size), 0), dims[2] - 1)
+    ix = clamp(int((px - lo[0]) / cell_size), 0, dims[0] - 1)
+    iy = clamp(int((py - lo[1]) / cell_size), 0, dims[1] - 1)
+    iz = clamp(int((pz - lo[2]) / cell_size), 0, dims[2] - 1)
     return (iz * dims[1] + iy) * dims[0] + ix
 
 
@@ -94,13 +105,13 @@ def _scan_row(i, x, xe, orig, shift, rad, skin, lo, dims, cell_size, cell_start,
     py = x[i, 1]
     pz = x[i, 2]
     ri = rad[i] + skin
-    ix = min(max(int((px - lo[0]) / cell_size), 0), dims[0] - 1)
-    iy = min(max(int((py - lo[1]) / cell_size), 0), dims[1] - 1)
-    iz = min(max(int((pz - lo[2]) / cell_size), 0), dims[2] - 1)
+    ix = clamp(int((px - lo[0]) / cell_size), 0, dims[0] - 1)
+    iy = clamp(int((py - lo[1]) / cell_size), 0, dims[1] - 1)
+    iz = clamp(int((pz - lo[2]) / cell_size), 0, dims[2] - 1)
     k = 0
-    for cz in range(max(iz - 1, 0), min(iz + 2, dims[2])):
-        for cy in range(max(iy - 1, 0), min(iy + 2, dims[1])):
-            for cx in range(max(ix - 1, 0), min(ix + 2, dims[0])):
+    for cz in range(clamp(iz - 1, 0, iz), clamp(iz + 2, iz, dims[2])):
+        for cy in range(clamp(iy - 1, 0, iy), clamp(iy + 2, iy, dims[1])):
+            for cx in range(clamp(ix - 1, 0, ix), clamp(ix + 2, ix, dims[0])):
                 c = (cz * dims[1] + cy) * dims[0] + cx
                 for q in range(cell_start[c], cell_start[c + 1]):
                     e = order[q]

@@ -59,6 +59,37 @@ def _image_element(eid, w, nblades, nribs, sector):
     return eid
 
 
+@njit(cache=True, inline="always")
+def wrap_particle(i, x, v, w, wid, whist, wrhist, opening, nblades, nribs, sector, c, s):
+    """Rotate particle i back into the wedge if it has left it, with its velocity, spin, wall slots
+    and their history (the per-particle part of :func:`wrap_into_sector`, shared with the CUDA
+    path's list build). c, s: cos Θ, sin Θ. Returns its shift k ∈ {−1, 0, 1} (:func:`wrap_shift`)."""
+    k = wrap_shift(x[i, 0], x[i, 1], opening)
+    if k == 0:
+        return 0
+    sk = k * s
+    _rotate_rows(x, i, c, sk)
+    _rotate_rows(v, i, c, sk)
+    _rotate_rows(w, i, c, sk)
+    for slot in range(WALL_SLOTS):
+        if wid[i, slot] >= 0:
+            wid[i, slot] = _image_element(wid[i, slot], k, nblades, nribs, sector)
+            _rotate_rows(whist, i * WALL_SLOTS + slot, c, sk)
+            _rotate_rows(wrhist, i * WALL_SLOTS + slot, c, sk)
+    return k
+
+
+@njit(cache=True, inline="always")
+def wrap_pairs(i, start, pj, pimg, hist, rhist, shift, c, s):
+    """The pairs owner i holds after a wrap: each partner image index shifted to match, and i's
+    spring vectors turned with i (the per-owner part of :func:`wrap_into_sector`)."""
+    for p in range(start[i], start[i + 1]):
+        pimg[p] += shift[i] - shift[pj[p]]
+        if shift[i] != 0:
+            _rotate_rows(hist, p, c, shift[i] * s)
+            _rotate_rows(rhist, p, c, shift[i] * s)
+
+
 @njit(cache=True)
 def wrap_into_sector(x, v, w, start, pj, pimg, hist, rhist, wid, whist, wrhist, opening, nblades, nribs):
     """Rotate every particle that has left the wedge back into it (see the module's docstring).
@@ -74,34 +105,26 @@ def wrap_into_sector(x, v, w, start, pj, pimg, hist, rhist, wid, whist, wrhist, 
         The number of particles wrapped.
     """
     n = x.shape[0]
-    sector = int(round(2.0 * math.pi / opening))
+    sector = sector_count(opening)
     shift = np.zeros(n, dtype=np.int64)
     c = math.cos(opening)
     s = math.sin(opening)
     wrapped = 0
     for i in range(n):
-        k = wrap_shift(x[i, 0], x[i, 1], opening)
-        if k == 0:
-            continue
-        shift[i] = k
-        wrapped += 1
-        sk = k * s
-        for a in (x, v, w):
-            _rotate_rows(a, i, c, sk)
-        for slot in range(WALL_SLOTS):
-            if wid[i, slot] >= 0:
-                wid[i, slot] = _image_element(wid[i, slot], k, nblades, nribs, sector)
-                _rotate_rows(whist, i * WALL_SLOTS + slot, c, sk)
-                _rotate_rows(wrhist, i * WALL_SLOTS + slot, c, sk)
+        shift[i] = wrap_particle(i, x, v, w, wid, whist, wrhist, opening, nblades, nribs, sector, c, s)
+        if shift[i] != 0:
+            wrapped += 1
     if wrapped == 0:
         return 0
     for i in range(n):
-        for p in range(start[i], start[i + 1]):
-            pimg[p] += shift[i] - shift[pj[p]]
-            if shift[i] != 0:
-                _rotate_rows(hist, p, c, shift[i] * s)
-                _rotate_rows(rhist, p, c, shift[i] * s)
+        wrap_pairs(i, start, pj, pimg, hist, rhist, shift, c, s)
     return wrapped
+
+
+@njit(cache=True, inline="always")
+def sector_count(opening):
+    """k of a sector of opening Θ = 2π/k (rounded to the nearest integer)."""
+    return int(2.0 * math.pi / opening + 0.5)
 
 
 @njit(cache=True)
