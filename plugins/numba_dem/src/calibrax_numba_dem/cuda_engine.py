@@ -23,7 +23,7 @@ checks read them.
 
 Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, what the tests and CI run on a machine
 without a GPU) the kernels run on the CPU as Python, thread by thread; the physics functions they
-call then run as the CPU path's compiled code on the simulator's arrays (:func:`_device`), so the
+call then run as the CPU path's compiled code on the simulator's arrays (:func:`~calibrax_numba_dem.cuda_device.device`), so the
 simulator checks the CUDA path's launches, indexing, reduction, stop flag and host rebuilds, and
 :func:`compile_ptx` checks that every kernel compiles for a real GPU.
 """
@@ -37,13 +37,12 @@ import numba
 import numpy as np
 from numba import cuda
 
+from .cuda_device import SIMULATOR, device
 from .engine import DEMSystem, finish_step, gather_row, max_displacement2, pair_row
 from .geometry import element_directions
 from .layout import (P_BETA, P_COH, P_DT, P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SECTOR,
                      P_SKIN)
 
-#: whether Numba's CUDA simulator stands in for a GPU (NUMBA_ENABLE_CUDASIM=1)
-SIMULATOR = bool(numba.config.ENABLE_CUDASIM)
 #: threads per block of the per-particle kernels
 THREADS_PER_BLOCK = 128
 #: threads of the one block that reduces the particles' loads (a power of two; two under the
@@ -75,28 +74,10 @@ def threads_per_block(n: int) -> int:
     return max(32, min(THREADS_PER_BLOCK, 32 * ((n + 31) // 32)))
 
 
-def _device(fn):
-    """``fn`` as the kernels call it. On a GPU the ``njit`` dispatcher itself (Numba compiles it as
-    a device function); under the simulator, a call of its compiled CPU code on the numpy arrays
-    behind the simulator's in-kernel arrays."""
-    if not SIMULATOR:
-        return fn
-
-    def call(*args):
-        return fn(*[_unwrap(a) for a in args])
-
-    return call
-
-
-def _unwrap(arg):
-    item = getattr(arg, "_item", None) if not isinstance(arg, (int, float, np.ndarray)) else None
-    return arg if item is None else item._ary
-
-
-_pair_row = _device(pair_row)
-_gather_row = _device(gather_row)
-_finish_step = _device(finish_step)
-_element_directions = _device(element_directions)
+_pair_row = device(pair_row)
+_gather_row = device(gather_row)
+_finish_step = device(finish_step)
+_element_directions = device(element_directions)
 
 
 @cuda.jit
@@ -432,9 +413,9 @@ def compile_ptx(compute_capability: tuple[int, int] = (9, 0)) -> dict[str, int]:
     # Numba asks the current device for its compute capability when it compiles a device function
     # that is not inlined (element_directions, the servo): with no GPU here, one of
     # ``compute_capability`` stands in for it, for this compilation only
-    device = SimpleNamespace(compute_capability=compute_capability)
+    stand_in = SimpleNamespace(compute_capability=compute_capability)
     out = {}
-    with mock.patch.object(numba.cuda.dispatcher, "get_current_device", lambda: device):
+    with mock.patch.object(numba.cuda.dispatcher, "get_current_device", lambda: stand_in):
         for name, (kernel, sig) in signatures.items():
             ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=compute_capability)
             out[name] = len(ptx)

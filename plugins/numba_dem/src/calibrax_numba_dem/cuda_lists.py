@@ -29,39 +29,24 @@ import numba
 import numpy as np
 from numba import cuda
 
+from .cuda_device import SIMULATOR, device
 from .layout import P_NBLADES, P_NRIBS, P_SECTOR
 from .neighbours import _scan_row, clamp
 from .periodic import _face_distance, rotate_xy, sector_count, wrap_pairs, wrap_particle
 
-SIMULATOR = bool(numba.config.ENABLE_CUDASIM)
 #: threads of the one-block scans and reductions (a power of two; few under the simulator)
 BLOCK_THREADS = 4 if SIMULATOR else 512
 #: the CPU path's cap on the cell grid's size along each axis (neighbours.bin_particles)
 MAX_DIM = 512
 
 
-def _device(fn):
-    if not SIMULATOR:
-        return fn
-
-    def call(*args):
-        return fn(*[_unwrap(a) for a in args])
-
-    return call
-
-
-def _unwrap(arg):
-    item = getattr(arg, "_item", None) if not isinstance(arg, (int, float, np.ndarray)) else None
-    return arg if item is None else item._ary
-
-
-_wrap_particle = _device(wrap_particle)
-_wrap_pairs = _device(wrap_pairs)
-_scan_row_d = _device(_scan_row)
-_face_distance_d = _device(_face_distance)
-_rotate_xy = _device(rotate_xy)
-_clamp = _device(clamp)
-_sector_count = _device(sector_count)
+_wrap_particle = device(wrap_particle)
+_wrap_pairs = device(wrap_pairs)
+_scan_row_d = device(_scan_row)
+_face_distance_d = device(_face_distance)
+_rotate_xy = device(rotate_xy)
+_clamp = device(clamp)
+_sector_count = device(sector_count)
 
 
 def per_thread(kernel, count: int):
