@@ -48,6 +48,13 @@ def run_diagnose(store: Path, *, effects: str | None = None, backend: str | None
     options = dict(cfg_executor[1])
     if workers is not None:
         options["workers"] = workers
+    if cfg_executor[0] != "dask" and hasattr(simulator, "check_machine"):
+        # the simulations run here: refuse a cell this machine cannot run (a GPU asked for, none here)
+        for spec in (calibrated.spec, *([calibrated.cheap[1]] if calibrated.cheap else [])):
+            try:
+                simulator.check_machine(spec)
+            except ConfigError as exc:
+                raise ConfigError(f"cell.{exc.key}", f"{exc.message} (the store's campaign cell)") from None
     executor = get_manager().create("executor", cfg_executor[0], **options)
     result = diagnose(calibrated, candidates, out, executor, backend=backend, budget=plan, fit_on=fit_groups,
                       seed=seed, asked=names is not None, capabilities=capabilities)
