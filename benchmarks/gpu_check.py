@@ -5,7 +5,8 @@
    different orders).
 2. Throughput, µs per particle-step, ``quick``'s poured bed and its preshear, on the CPU path at
    every core and on the CUDA path (benchmarks/dem_throughput.py's states and clocks), with the
-   ratio.
+   ratio; then beds of 16 particles per diameter and (in part 4) of the full ``converged`` cell
+   poured by the CUDA path itself, timed on both paths.
 3. One whole ``quick`` test per seed on both paths: its three features (C, AIF, the bulk density)
    side by side (equal within seed noise: the paths round differently, and a granular bed
    amplifies round-off), and each path's wall time.
@@ -98,6 +99,46 @@ def throughput(preset: str, steps: int, rounds: int) -> None:
             f"CPU/CUDA x{statistics.median(a / b for a, b in zip(cpu, gpu)):.1f}")
 
 
+def poured_throughput(label: str, preset: str, geometry: dict, steps: int, timeout: float) -> None:
+    """Part 2b: the bed of ``preset`` (``geometry`` overrides) poured by the CUDA path, then
+    ``steps`` steps of it timed on the CUDA path and on the CPU path at every core, in a fresh
+    process given ``timeout`` s."""
+    code = f"""
+import copy, json, logging, time, numba
+from calibrax.core.sheartest import ShearCellSpec
+from calibrax.core.sheartest.engine_control import RunLog
+from calibrax.core.sheartest.procedure_stages import Pour
+from calibrax_numba_dem.engine import numba_threads
+from calibrax_numba_dem.layout import P_USE_HEAD
+from calibrax_numba_dem.procedure import ShearTestDriver
+spec = ShearCellSpec.preset({preset!r}).replace(numerics={{"device": "cuda"}}, geometry={geometry!r})
+driver = ShearTestDriver(spec, RunLog(logging.getLogger("gpu_check")))
+t0 = time.perf_counter()
+driver.run_stage(Pour())
+pour = time.perf_counter() - t0
+gpu = driver.sys
+gpu.params[P_USE_HEAD] = 0.0
+cpu = copy.deepcopy(gpu.pull())
+gpu.advance(10)
+t0 = time.perf_counter(); gpu.advance({steps}); t_gpu = time.perf_counter() - t0
+with numba_threads(numba.config.NUMBA_NUM_THREADS):
+    cpu.advance(10)
+    t0 = time.perf_counter(); cpu.advance({steps}); t_cpu = time.perf_counter() - t0
+print(json.dumps({{"n": gpu.n, "pour": pour, "gpu": t_gpu / ({steps} * gpu.n) * 1e6, "cpu": t_cpu / ({steps} * gpu.n) * 1e6}}))
+"""
+    try:
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        say(f"   {label}: did not finish in {timeout:.0f} s (pour and timing)")
+        return
+    if proc.returncode != 0:
+        say(f"   {label}: failed: {proc.stderr[-800:]}")
+        return
+    r = json.loads(proc.stdout.strip().splitlines()[-1])
+    say(f"   {label}: {r['n']} particles poured on the GPU in {r['pour']:.0f} s; bed µs per particle-step: CPU "
+        f"{r['cpu']:.4f}, CUDA {r['gpu']:.4f}, CPU/CUDA x{r['cpu'] / r['gpu']:.1f}")
+
+
 def whole_test(preset: str, device: str, seed: int, threads: int, timeout: float, **geometry) -> dict:
     """One whole test in a fresh process (``timeout`` s): features, wall time, or the log's tail."""
     code = f"""
@@ -152,6 +193,10 @@ def main() -> int:
         except Exception as exc:  # noqa: BLE001 — report and go on to the next part
             say(f"{label}. failed: {exc!r}")
         say(f"   ({time.perf_counter() - t0:.0f} s)")
+    say("2b. beds poured on the GPU, the CUDA path beside the CPU path at every core:")
+    d16 = 16 * 2 * 0.9e-3
+    poured_throughput("16 per diameter", "quick", {"vessel_diameter": d16, "fill_height": 0.88 * d16,
+                                                   "head_radius": 0.48 * d16, "hub_radius": 0.1 * d16}, 500, 90.0)
     say("3. whole quick tests, CPU path at every core vs CUDA path, same seeds:")
     for seed in args.seeds:
         for dev in ("cpu", "cuda"):
@@ -161,6 +206,9 @@ def main() -> int:
             say(f"   seed {seed} {dev:4s}: {words}")
     left = args.budget_s - (time.perf_counter() - start) - 10.0
     say(f"4. the full converged cell (no sector) on the CUDA path, {left:.0f} s allowed:")
+    if left > 120:
+        poured_throughput("converged, full cell", "converged", {"sector": 1}, 200, min(120.0, left / 3))
+        left = args.budget_s - (time.perf_counter() - start) - 10.0
     if left > 30:
         r = whole_test("converged", "cuda", 11, cores, left, sector=1)
         say("   " + (f"{r['n']} particles: {r['wall']:.0f} s wall; C {r['C']:.0f} Pa, AIF {r['AIF']:.2f}°, "
