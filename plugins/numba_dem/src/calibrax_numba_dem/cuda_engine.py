@@ -255,6 +255,11 @@ class CudaDEMSystem:
             self._fresh.add(name)
         return getattr(self.host, name)
 
+    def read(self, name: str) -> np.ndarray:
+        """The host's copy of state array ``name``, to read, not to change: it is not sent back up
+        (the shear test's checks read the particles this way, once per sample)."""
+        return self._down(name)
+
     def _lend(self, name: str) -> np.ndarray:
         self._lent.add(name)
         return self._down(name)

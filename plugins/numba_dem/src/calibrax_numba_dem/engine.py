@@ -447,6 +447,11 @@ class DEMSystem:
         """Particle count."""
         return self.x.shape[0]
 
+    def read(self, name: str) -> np.ndarray:
+        """State array ``name`` (``"x"``, ``"v"``, …) to read, not to change (the CUDA path's
+        :meth:`~calibrax_numba_dem.cuda_engine.CudaDEMSystem.read` then need not send it back)."""
+        return getattr(self, name)
+
     @property
     def pair_count(self) -> int:
         """Pairs in the current half neighbour lists."""

@@ -66,8 +66,9 @@ class NumbaShearEngine:
     time = property(lambda self: float(self.sys.head[H_TIME]))
     head_height = property(lambda self: float(self.sys.head[H_Z]))
     head_angle = property(lambda self: float(self.sys.head[H_PHI]))
-    positions = property(lambda self: self.sys.x)
-    velocities = property(lambda self: self.sys.v)
+    # read only: the stage runner never writes them, and on the CUDA path a read need not go back up
+    positions = property(lambda self: self.sys.read("x"))
+    velocities = property(lambda self: self.sys.read("v"))
     radii = property(lambda self: self.sys.rad)
     masses = property(lambda self: self.sys.mass)
 
