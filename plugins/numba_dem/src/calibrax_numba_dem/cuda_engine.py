@@ -23,9 +23,10 @@ checks read them.
 
 Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, what the tests and CI run on a machine
 without a GPU) the kernels run on the CPU as Python, thread by thread; the physics functions they
-call then run as the CPU path's compiled code on the simulator's arrays (:func:`~calibrax_numba_dem.cuda_device.device`), so the
-simulator checks the CUDA path's launches, indexing, reduction, stop flag and host rebuilds, and
-:func:`compile_ptx` checks that every kernel compiles for a real GPU.
+call then run as the CPU path's compiled code on the simulator's arrays
+(:func:`~calibrax_numba_dem.cuda_device.device`), so the simulator checks the CUDA path's launches,
+indexing, reductions, stop flag and list builds, and :func:`compile_ptx` checks that every kernel
+compiles for a real GPU.
 """
 
 from __future__ import annotations
