@@ -14,6 +14,23 @@ import numpy as np
 
 #: whether Numba's CUDA simulator stands in for a GPU (NUMBA_ENABLE_CUDASIM=1)
 SIMULATOR = bool(numba.config.ENABLE_CUDASIM)
+#: threads per block of the kernels that run one thread per particle, pair or cell
+THREADS_PER_BLOCK = 128
+
+
+def threads_per_block(count: int) -> int:
+    """Threads per block for ``count`` threads: THREADS_PER_BLOCK, or fewer for a small count
+    (whole warps on a GPU, exactly ``count`` under the simulator, which starts a Python thread per
+    thread)."""
+    if SIMULATOR:
+        return max(1, min(THREADS_PER_BLOCK, count))
+    return max(32, min(THREADS_PER_BLOCK, 32 * ((count + 31) // 32)))
+
+
+def per_thread(kernel, count: int):
+    """``kernel`` configured for ``count`` threads (at least one block)."""
+    per_block = threads_per_block(count)
+    return kernel[max(1, (count + per_block - 1) // per_block), per_block]
 
 
 def device(fn):

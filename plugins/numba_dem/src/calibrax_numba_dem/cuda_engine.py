@@ -38,14 +38,12 @@ import numba
 import numpy as np
 from numba import cuda
 
-from .cuda_device import SIMULATOR, device
+from .cuda_device import SIMULATOR, device, per_thread
 from .engine import DEMSystem, finish_step, gather_row, max_displacement2, pair_row
 from .geometry import element_directions
 from .layout import (P_BETA, P_COH, P_DT, P_ESTAR, P_GSTAR, P_GZ, P_MU, P_MUR, P_NBLADES, P_NRIBS, P_SECTOR,
                      P_SKIN)
 
-#: threads per block of the per-particle kernels
-THREADS_PER_BLOCK = 128
 #: threads of the one block that reduces the particles' loads (a power of two; two under the
 #: simulator, which starts a Python thread for every thread of every launch)
 REDUCE_THREADS = 2 if SIMULATOR else 256
@@ -65,14 +63,6 @@ def cuda_available() -> bool:
         return bool(cuda.is_available())
     except Exception:  # noqa: BLE001 — a broken driver install is "no GPU" too
         return False
-
-
-def threads_per_block(n: int) -> int:
-    """Threads per block of the per-particle kernels for ``n`` particles: THREADS_PER_BLOCK, or
-    fewer for a small system (whole warps on a GPU, exactly ``n`` under the simulator)."""
-    if SIMULATOR:
-        return max(1, min(THREADS_PER_BLOCK, n))
-    return max(32, min(THREADS_PER_BLOCK, 32 * ((n + 31) // 32)))
 
 
 _pair_row = device(pair_row)
@@ -325,9 +315,8 @@ class CudaDEMSystem:
         self._send_lent()
         d["params"].copy_to_device(self.params)
         d["head"].copy_to_device(self.head)
-        n = self.host.n
-        per_block = threads_per_block(n)
-        blocks = (n + per_block - 1) // per_block
+        pairs = per_thread(pair_kernel, self.host.n)  # configured once: launched every step
+        gather = per_thread(gather_kernel, self.host.n)
         limit = self._limit()
         status = d["status"].copy_to_host()
         done = 0
@@ -339,14 +328,11 @@ class CudaDEMSystem:
             for _ in range(min(STEPS_PER_SYNC, nsteps - done)):
                 kick = 1.0 if self._started else 0.5
                 self._started = True
-                pair_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["rad"], d["mass"],
-                                               d["start"], d["pj"], d["pimg"], d["hist"], d["rhist"], d["pf"],
-                                               d["fo"], d["params"])
-                gather_kernel[blocks, per_block](d["status"], d["x"], d["v"], d["w"], d["f"], d["t"],
-                                                 d["rad"], d["mass"], d["inertia"], d["rstart"], d["rpair"],
-                                                 d["pf"], d["fo"], d["params"], d["head"], d["dirs"],
-                                                 d["wid"], d["whist"], d["wrhist"], d["x_build"], kick,
-                                                 d["loads"])
+                pairs(d["status"], d["x"], d["v"], d["w"], d["rad"], d["mass"], d["start"], d["pj"], d["pimg"],
+                      d["hist"], d["rhist"], d["pf"], d["fo"], d["params"])
+                gather(d["status"], d["x"], d["v"], d["w"], d["f"], d["t"], d["rad"], d["mass"], d["inertia"],
+                       d["rstart"], d["rpair"], d["pf"], d["fo"], d["params"], d["head"], d["dirs"], d["wid"],
+                       d["whist"], d["wrhist"], d["x_build"], kick, d["loads"])
                 head_kernel[1, REDUCE_THREADS](d["status"], d["loads"], d["params"], d["head"], d["dirs"], limit)
             status = d["status"].copy_to_host()
             done += int(status[S_DONE])

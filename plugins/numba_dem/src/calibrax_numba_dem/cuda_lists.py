@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numba import cuda
 
-from .cuda_device import SIMULATOR, device
+from .cuda_device import SIMULATOR, device, per_thread
 from .layout import P_NBLADES, P_NRIBS, P_SECTOR
 from .neighbours import _scan_row, clamp
 from .periodic import _face_distance, rotate_xy, sector_count, wrap_pairs, wrap_particle
@@ -47,12 +47,6 @@ _face_distance_d = device(_face_distance)
 _rotate_xy = device(rotate_xy)
 _clamp = device(clamp)
 _sector_count = device(sector_count)
-
-
-def per_thread(kernel, count: int):
-    """``kernel`` configured for ``count`` threads (at least one block)."""
-    per_block = max(1, min(128, count)) if SIMULATOR else 128
-    return kernel[max(1, (count + per_block - 1) // per_block), per_block]
 
 
 @cuda.jit
