@@ -223,6 +223,42 @@ def test_a_locus_whose_peaks_fall_with_sigma_is_flagged():
     assert any(w.startswith("the peaks do not rise with σ") for w in res.warnings), res.warnings
 
 
+@pytest.mark.parametrize("preset, wall, warned", [
+    ("converged", 0.3, True),   # rim 0.92 d from the wall: a particle wedges (measured, docs/explanation/sector.md)
+    ("paper", 0.1, True),       # 0.68 d: still between a radius and a diameter
+    ("converged", 0.0, False),  # a frictionless wall holds no wedge
+    ("quick", 0.3, False),      # 0.24 d: no particle's centre passes the rim
+    ("tiny", 0.45, False),      # 0.18 d
+])
+def test_a_frictional_wall_beside_a_rim_gap_that_wedges_particles_is_flagged(preset, wall, warned):
+    from calibrax.core.sheartest import rim_gap_warning
+
+    spec = ShearCellSpec.preset(preset).replace(geometry={"wall_friction": wall})
+    warning = rim_gap_warning(spec)
+    assert (warning is not None) == warned, warning
+    if warned:
+        gap = {"converged": "0.92", "paper": "0.68"}[preset]
+        assert f"the head's rim is {gap} particle diameters from a frictional wall" in warning
+        assert "geometry.head_radius" in warning
+        # the remedy it names clears it: the head at the radius it asks for
+        radius = spec.geometry.vessel_diameter / 2.0 - 0.5 * spec.radius
+        assert rim_gap_warning(spec.replace(geometry={"head_radius": radius})) is None
+
+
+def test_a_result_carries_the_rim_gap_warning():
+    from calibrax.core.sheartest import Provenance, ShearTestResult, StepRecord
+
+    rot = np.linspace(0.0, 0.3, 100)
+    full = lambda v: np.full(rot.size, v)  # noqa: E731
+    steps = []
+    for target in (9000.0, 8000.0, 7000.0, 6000.0):
+        steps.append(StepRecord("preshear", 15000.0, rot / 5.0, rot, full(9000.0), full(15000.0), full(0.02)))
+        steps.append(StepRecord("shear", target, rot / 5.0, rot, full(0.7 * target), full(target), full(0.02)))
+    spec = ShearCellSpec.preset("converged").replace(geometry={"wall_friction": 0.3})
+    res = ShearTestResult.from_steps(spec, steps, [1500.0] * 4, Provenance("hand", "-", "-", 0, 1.0, 100))
+    assert any(w.startswith("the head's rim is 0.92 particle diameters") for w in res.warnings), res.warnings
+
+
 def test_preshear_drift_compares_the_last_two_windows():
     from calibrax.core.sheartest import preshear_drift, steady_window_samples
 

@@ -33,7 +33,8 @@ from calibrax.core.sheartest.peaks import (FIXED_PRESHEAR_STEADY_FRACTION, find_
                                            steady_window_samples, stress_at_peak)
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, GRAVITY, base_layer_bounds,
                                              base_shear_capacity, base_slip, inertial_number,
-                                             layer_spin, locus_warning, shear_stress_from_torque, steady_base_load)
+                                             layer_spin, locus_warning, rim_gap_warning, shear_stress_from_torque,
+                                             steady_base_load)
 from calibrax.core.sheartest.presets import FIDELITY_PRESETS, PROCEDURES, STEADY_PRESHEAR
 from calibrax.core.sheartest.result import LOST_BED_FRACTION, Provenance, ShearTestResult
 from calibrax.core.sheartest.steps import StepRecord
@@ -51,7 +52,7 @@ __all__ = [
     "StepRecord", "Provenance", "ShearTestResult", "YieldLocus", "MohrAnalysis", "LOST_BED_FRACTION",
     "critical_time_step", "find_peak", "shear_stress_from_torque", "inertial_number",
     "base_shear_capacity", "steady_base_load", "BASE_SLIP_FRACTION", "BASE_SPIN_SLIP_FRACTION",
-    "base_slip", "base_layer_bounds", "layer_spin", "locus_warning", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
+    "base_slip", "base_layer_bounds", "layer_spin", "locus_warning", "rim_gap_warning", "GRAVITY", "PROCEDURES", "FIDELITY_PRESETS",
     "STEADY_PRESHEAR", "preshear_drift", "preshear_steady_part", "FIXED_PRESHEAR_STEADY_FRACTION",
     "steady_window_samples", "running_mean_width", "stress_at_peak", "steady_schedule",
     "INSERTION_STRESS_FRACTION", "INSERTION_FRICTION", "INSERTION_TIME_FACTOR", "INSERTION_TOLERANCE_RADII",

@@ -1,6 +1,7 @@
 """Physics of the cell that every backend and every result reads the same way (the critical time
 step is :mod:`calibrax.core.sheartest.timestep`'s): τ from the head's torque, the inertial number, what the base can hold and whether the bed
-slid on it, and whether a yield locus looks physical."""
+slid on it, whether a yield locus looks physical, and whether the head's rim can wedge particles against a
+frictional wall."""
 
 from __future__ import annotations
 
@@ -142,3 +143,24 @@ def locus_warning(normal_stress: np.ndarray, peak_shear_stress: np.ndarray) -> s
     what = "the peaks do not rise with σ" if falls else "the locus falls"
     return (f"{what} ({pairs}; AIF = {aif:.1f}°): one test's locus at this fidelity is mostly seed noise; "
             "pool seeds (seeds_per_point) or use a finer cell (docs/explanation/seed-noise.md)")
+
+
+def rim_gap_warning(spec: "ShearCellSpec") -> str | None:
+    """A warning when a particle can wedge between a blade's outer edge and a frictional vessel
+    wall, None otherwise.
+
+    That happens when the gap between the head's rim and the wall (m) lies between one particle
+    radius and one diameter (``spec.radius``, m): a particle's centre passes the rim but the particle
+    does not fit through. A wall with friction holds the wedge, and τ then measures it, not the
+    powder. The presets' gap is 0.02 D: 0.92 d at ``converged``, where a wall of 0.3 read a
+    preshear τ/σ of 7 to 50 (docs/explanation/sector.md, "A frictional wall and the rim gap").
+    """
+    g, r = spec.geometry, spec.radius
+    gap = g.vessel_diameter / 2.0 - g.head_radius
+    if g.wall_friction <= 0.0 or not r < gap < 2.0 * r:
+        return None
+    return (f"the head's rim is {gap / (2.0 * r):.2f} particle diameters from a frictional wall (geometry.wall_friction = "
+            f"{g.wall_friction:g}): a particle can wedge between a blade's edge and the wall, and τ then measures the "
+            f"wedge, not the powder; leave a gap under half a diameter (geometry.head_radius ≥ "
+            f"{(g.vessel_diameter / 2.0 - 0.5 * r) * 1e3:.3f} mm) or a frictionless wall "
+            "(docs/explanation/sector.md#a-frictional-wall-and-the-rim-gap)")

@@ -12,7 +12,7 @@ import numpy as np
 from calibrax.core.sheartest.peaks import (find_peak, peak_noise_ratio, preshear_drift, preshear_steady_part,
                                           stress_at_peak)
 from calibrax.core.sheartest.physics import (BASE_SLIP_FRACTION, BASE_SPIN_SLIP_FRACTION, base_slip, inertial_number,
-                                             locus_warning, steady_base_load)
+                                             locus_warning, rim_gap_warning, steady_base_load)
 from calibrax.core.sheartest.spec import ShearCellSpec
 from calibrax.core.sheartest.steps import StepRecord
 from calibrax.core.sheartest.yieldlocus import YieldLocus
@@ -135,6 +135,9 @@ class ShearTestResult:
                          f"flat base (μ = {mu_base:.3g}) can hold, so τ measures the base's friction more than the "
                          "powder's strength; give the base ribs (geometry.base_ribs) or more friction "
                          "(geometry.base_friction)")
+        wedge = rim_gap_warning(spec)
+        if wedge is not None:
+            warns.append(wedge)
         odd = locus_warning(np.asarray([s.target_stress for s in shear], float), np.asarray(peaks, float))
         if odd is not None:
             warns.append(odd)
