@@ -13,7 +13,7 @@ the wedge (docs/explanation/sector.md, "A frictional wall and the rim gap"):
     .venv/bin/python benchmarks/rim_gap.py --wall-friction 0.3          # the preset's own gap
 
 Material: E 20 GPa, μs 0.35, μr 0.5 (the pseudo-experiments' truth); seed 7; one thread.
-About 10 CPU-minutes a test with the machine to itself.
+About 4 minutes a test (223 and 240 s with the machine to itself, 2026-12-07).
 """
 
 from __future__ import annotations
