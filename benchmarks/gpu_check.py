@@ -99,19 +99,25 @@ def throughput(preset: str, steps: int, rounds: int) -> None:
             f"CPU/CUDA x{statistics.median(a / b for a, b in zip(cpu, gpu)):.1f}")
 
 
-def poured_throughput(label: str, preset: str, geometry: dict, steps: int, timeout: float) -> None:
-    """Part 2b: the bed of ``preset`` (``geometry`` overrides) poured by the CUDA path, then
+def poured_throughput(label: str, preset: str, geometry: dict, steps: int, timeout: float,
+                      particles_per_diameter: float | None = None) -> None:
+    """Part 2b: the bed of ``preset`` (``geometry`` overrides; at ``particles_per_diameter`` when
+    given, scaled as ``calibrax converge`` scales it) poured by the CUDA path, then
     ``steps`` steps of it timed on the CUDA path and on the CPU path at every core, in a fresh
     process given ``timeout`` s."""
     code = f"""
 import copy, json, logging, time, numba
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.core.sheartest.engine_control import RunLog
+from calibrax.core.studies.convergence import with_particles_per_diameter
 from calibrax.core.sheartest.procedure_stages import Pour
 from calibrax_numba_dem.engine import numba_threads
 from calibrax_numba_dem.layout import P_USE_HEAD
 from calibrax_numba_dem.procedure import ShearTestDriver
 spec = ShearCellSpec.preset({preset!r}).replace(numerics={{"device": "cuda"}}, geometry={geometry!r})
+ppd = {particles_per_diameter!r}
+if ppd is not None:
+    spec = with_particles_per_diameter(spec, ppd)
 driver = ShearTestDriver(spec, RunLog(logging.getLogger("gpu_check")))
 t0 = time.perf_counter()
 driver.run_stage(Pour())
@@ -194,9 +200,7 @@ def main() -> int:
             say(f"{label}. failed: {exc!r}")
         say(f"   ({time.perf_counter() - t0:.0f} s)")
     say("2b. beds poured on the GPU, the CUDA path beside the CPU path at every core:")
-    d16 = 16 * 2 * 0.9e-3
-    poured_throughput("16 per diameter", "quick", {"vessel_diameter": d16, "fill_height": 0.88 * d16,
-                                                   "head_radius": 0.48 * d16, "hub_radius": 0.1 * d16}, 500, 90.0)
+    poured_throughput("16 per diameter", "quick", {}, 500, 90.0, particles_per_diameter=16.0)
     say("3. whole quick tests, CPU path at every core vs CUDA path, same seeds:")
     for seed in args.seeds:
         for dev in ("cpu", "cuda"):
