@@ -41,6 +41,23 @@ def test_an_unconstrained_parameter_is_said_to_be_so_and_the_constrained_one_is_
     text = answer.statement()
     assert "E anywhere in 5 GPa to 50 GPa: the test does not constrain it" in text
     assert text.startswith("E anywhere") and "μs = " in text
+    # the width is printed, in natural units and as the share of the searched range (0.1 to 0.9)
+    assert answer.spans["sliding_friction"] == pytest.approx((hi - lo) / 0.8)
+    assert f", width {hi - lo:.3g}: {100 * (hi - lo) / 0.8:.0f} % of the searched range)" in text
+    assert Answer.from_dict(answer.to_dict()) == answer
+
+
+def test_a_log_scaled_parameters_width_is_a_factor_and_its_share_is_on_the_log_scale():
+    from dataclasses import replace
+
+    answer = Answer(params={"youngs_modulus": 2e10}, predicted=1.0, predicted_sd=0.2, threshold=2.0, rate=0.95,
+                    ranges={"youngs_modulus": (1e10, 4e10)}, constrained={"youngs_modulus": True},
+                    region_share=0.6, n_points=10, bounds={"youngs_modulus": (5e9, 5e10)},
+                    spans={"youngs_modulus": 0.602}, log_scaled=("youngs_modulus",))
+    assert "E = 20 GPa (plausible 10 GPa to 40 GPa, width ×4: 60 % of the searched range)" in answer.statement()
+    assert Answer.from_dict(answer.to_dict()) == answer
+    # a store written before the widths: the statement as it was
+    assert "E = 20 GPa (plausible 10 GPa to 40 GPa)" in replace(answer, spans={}).statement()
 
 
 def test_a_parameter_bounded_from_one_side_is_said_to_be_so():

@@ -69,6 +69,9 @@ class Answer:
             written before it).
         region_share: share of the box that is plausible, in [0, 1].
         n_points: finished points the model was fitted on.
+        spans: {name: the region's projection as a share of the searched range, unit cube (log
+            scale for a log-scaled parameter)}, in [0, 1]; empty for stores written before it.
+        log_scaled: names of the log-scaled parameters (their width is stated as a factor).
     """
 
     params: dict[str, float]
@@ -82,6 +85,8 @@ class Answer:
     n_points: int
     bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     ruled_out: dict[str, tuple[bool, bool]] = field(default_factory=dict)
+    spans: dict[str, float] = field(default_factory=dict)
+    log_scaled: tuple[str, ...] = ()
 
     def statement(self) -> str:
         """"μs = 0.33 (plausible 0.29–0.38); E anywhere in 5–50 GPa: the test does not constrain it."."""
@@ -97,10 +102,19 @@ class Answer:
         for name, value in self.params.items():
             lo, hi = self.ranges[name]
             if self.constrained[name]:
-                parts.append(f"{_symbol(name)} = {_show(name, value)} (plausible {_show(name, lo)} to {_show(name, hi)})")
+                parts.append(f"{_symbol(name)} = {_show(name, value)} (plausible {_show(name, lo)} to "
+                             f"{_show(name, hi)}{self._width(name, lo, hi)})")
             else:
                 parts.append(self._unconstrained(name, lo, hi))
         return "; ".join(parts) + "."
+
+    def _width(self, name: str, lo: float, hi: float) -> str:
+        """", width 0.21: 26 % of the searched range" (a factor, "×1.9", for a log-scaled parameter);
+        empty where the store predates ``spans``."""
+        if name not in self.spans:
+            return ""
+        width = f"×{hi / lo:.2g}" if name in self.log_scaled and lo > 0 else _show(name, hi - lo)
+        return f", width {width}: {100 * self.spans[name]:.0f} % of the searched range"
 
     def _unconstrained(self, name: str, lo: float, hi: float) -> str:
         """What the answer says of a parameter the test does not constrain: the side it rules out,
@@ -134,6 +148,7 @@ class Answer:
         d["ranges"] = {k: list(v) for k, v in self.ranges.items()}
         d["bounds"] = {k: list(v) for k, v in self.bounds.items()}
         d["ruled_out"] = {k: list(v) for k, v in self.ruled_out.items()}
+        d["log_scaled"] = list(self.log_scaled)
         return d
 
     @classmethod
@@ -144,7 +159,9 @@ class Answer:
                    constrained={k: bool(v) for k, v in d["constrained"].items()},
                    region_share=float(d["region_share"]), n_points=int(d["n_points"]),
                    bounds={k: (float(v[0]), float(v[1])) for k, v in d.get("bounds", {}).items()},
-                   ruled_out={k: (bool(v[0]), bool(v[1])) for k, v in d.get("ruled_out", {}).items()})
+                   ruled_out={k: (bool(v[0]), bool(v[1])) for k, v in d.get("ruled_out", {}).items()},
+                   spans={k: float(v) for k, v in d.get("spans", {}).items()},
+                   log_scaled=tuple(d.get("log_scaled", ())))
 
 
 def grid(dim: int, n: int = GRID_POINTS, seed: int = 0) -> np.ndarray:
@@ -187,17 +204,19 @@ def answer_from_model(model, space: ParameterSpace, threshold: float, rate: floa
     names = space.names
     params = space.as_dict(space.from_unit(best_u.reshape(1, -1))[0])
     bounds = {p.name: (float(p.low), float(p.high)) for p in space.parameters}
-    ranges, constrained, ruled_out = {}, {}, {}
+    ranges, constrained, ruled_out, spans = {}, {}, {}, {}
     if inside.any():
         sub = cand[inside]
         nat = space.from_unit(sub)
         for j, name in enumerate(names):
             ranges[name] = (float(nat[:, j].min()), float(nat[:, j].max()))
             low_u, high_u = float(sub[:, j].min()), float(sub[:, j].max())
-            constrained[name] = high_u - low_u < UNCONSTRAINED_SHARE
+            spans[name] = high_u - low_u
+            constrained[name] = spans[name] < UNCONSTRAINED_SHARE
             ruled_out[name] = (low_u >= ONE_SIDED_SHARE, high_u <= 1.0 - ONE_SIDED_SHARE)
     else:
         constrained = {name: False for name in names}
     return Answer(params=params, predicted=float(pred[0]), predicted_sd=float(pred_sd[0]), threshold=float(threshold),
                   rate=float(rate), ranges=ranges, constrained=constrained, region_share=float(inside.mean()),
-                  n_points=int(n_points), bounds=bounds, ruled_out=ruled_out)
+                  n_points=int(n_points), bounds=bounds, ruled_out=ruled_out, spans=spans,
+                  log_scaled=tuple(p.name for p in space.parameters if p.log))
