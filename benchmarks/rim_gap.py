@@ -11,6 +11,7 @@ the wedge (docs/explanation/sector.md, "A frictional wall and the rim gap"):
     .venv/bin/python benchmarks/rim_gap.py --gap 0.92 --wall-friction 0.3
     .venv/bin/python benchmarks/rim_gap.py --gap 0.92 --wall-friction 0
     .venv/bin/python benchmarks/rim_gap.py --wall-friction 0.3          # the preset's own gap
+    .venv/bin/python benchmarks/rim_gap.py --preset converged --gap 0.24 --wall-friction 0.3  # ~42 CPU-min
 
 Material: E 20 GPa, μs 0.35, μr 0.5 (the pseudo-experiments' truth); seed 7; one thread.
 About 4 minutes a test (223 and 240 s with the machine to itself, 2026-12-07).
