@@ -2,8 +2,9 @@
 frictional wall: one numba_dem test of the ``quick`` cell per call, its rim gap and wall friction
 set, and what it read (peak and preshear τ, bulk density, C).
 
-The presets set the head's radius to 0.48 of the vessel's diameter, so the gap is 0.02 D: 0.18 d at
-``tiny``, 0.24 d at ``quick``, 0.68 d at ``paper`` and 0.92 d at ``converged``. Where it is
+``tiny`` and ``quick`` set the head's radius to 0.48 of the vessel's diameter, so the gap is
+0.02 D: 0.18 d and 0.24 d. ``paper`` and ``converged`` did too until 2026-12-07 (0.68 d and 0.92 d);
+they now state 0.24 d (``rim_gap_d``). Where it is
 between one particle radius and one diameter, a particle's centre passes the rim but the particle
 does not fit: it can wedge between a blade's outer edge and the wall, and a frictional wall holds
 the wedge (docs/explanation/sector.md, "A frictional wall and the rim gap"):
@@ -29,7 +30,7 @@ from pathlib import Path
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--gap", type=float, default=None,
-                   help="the rim gap in particle diameters (default: the preset's, 0.02 D)")
+                   help="the rim gap in particle diameters (default: the preset's)")
     p.add_argument("--wall-friction", type=float, required=True, help="geometry.wall_friction")
     p.add_argument("--preset", default="quick", help="a fidelity preset (default quick)")
     p.add_argument("--seed", type=int, default=7)

@@ -223,26 +223,51 @@ def test_a_locus_whose_peaks_fall_with_sigma_is_flagged():
     assert any(w.startswith("the peaks do not rise with σ") for w in res.warnings), res.warnings
 
 
-@pytest.mark.parametrize("preset, wall, warned", [
-    ("converged", 0.3, True),   # rim 0.92 d from the wall: a particle wedges (measured, docs/explanation/sector.md)
-    ("paper", 0.1, True),       # 0.68 d: still between a radius and a diameter
-    ("converged", 0.0, False),  # a frictionless wall holds no wedge
-    ("quick", 0.3, False),      # 0.24 d: no particle's centre passes the rim
-    ("tiny", 0.45, False),      # 0.18 d
+@pytest.mark.parametrize("preset, gap_d, wall, warned", [
+    ("converged", 0.92, 0.3, True),   # 0.02 D, the preset's gap before 2026-12-07: a particle wedges (measured)
+    ("paper", 0.68, 0.1, True),       # 0.02 D at 34/d: still between a radius and a diameter
+    ("converged", 0.92, 0.0, False),  # a frictionless wall holds no wedge
+    ("converged", None, 0.3, False),  # the preset's own gap, 0.24 d
+    ("paper", None, 0.3, False),      # 0.24 d
+    ("quick", None, 0.3, False),      # 0.24 d: no particle's centre passes the rim
+    ("tiny", None, 0.45, False),      # 0.18 d
 ])
-def test_a_frictional_wall_beside_a_rim_gap_that_wedges_particles_is_flagged(preset, wall, warned):
+def test_a_frictional_wall_beside_a_rim_gap_that_wedges_particles_is_flagged(preset, gap_d, wall, warned):
+    """docs/explanation/sector.md, "A frictional wall and the rim gap"."""
     from calibrax.core.sheartest import rim_gap_warning
 
     spec = ShearCellSpec.preset(preset).replace(geometry={"wall_friction": wall})
+    if gap_d is not None:
+        spec = spec.replace(geometry={"head_radius": spec.geometry.vessel_diameter / 2.0 - gap_d * 2.0 * spec.radius})
     warning = rim_gap_warning(spec)
     assert (warning is not None) == warned, warning
     if warned:
-        gap = {"converged": "0.92", "paper": "0.68"}[preset]
-        assert f"the head's rim is {gap} particle diameters from a frictional wall" in warning
+        assert f"the head's rim is {gap_d:.2f} particle diameters from a frictional wall" in warning
         assert "geometry.head_radius" in warning
         # the remedy it names clears it: the head at the radius it asks for
-        radius = spec.geometry.vessel_diameter / 2.0 - 0.5 * spec.radius
+        radius = float(warning.split("geometry.head_radius ≥ ")[1].split(" mm")[0]) * 1e-3
+        assert radius == pytest.approx(spec.geometry.vessel_diameter / 2.0 - spec.radius, abs=1e-6)
         assert rim_gap_warning(spec.replace(geometry={"head_radius": radius})) is None
+
+
+def test_the_presets_rim_gap_is_kept_in_particle_diameters_along_size():
+    """``paper`` and ``converged`` state their gap in d (0.24, under one radius); the size axis of
+    ``calibrax converge`` keeps a cell's gap in metres and its inertial number, where scaling the
+    gap with D took 0.24 d at 12/d to 0.92 d at 46/d."""
+    from calibrax.core.sheartest.physics import inertial_number
+    from calibrax.core.studies.convergence import with_particles_per_diameter
+
+    def gap_d(spec):
+        return (spec.geometry.vessel_diameter / 2.0 - spec.geometry.head_radius) / (2.0 * spec.radius)
+
+    for name in ("paper", "converged"):
+        assert gap_d(ShearCellSpec.preset(name)) == pytest.approx(0.24, rel=1e-9), name
+    quick = ShearCellSpec.preset("quick")
+    for ppd in (16.0, 46.0, 60.0):
+        grown = with_particles_per_diameter(quick, ppd)
+        assert grown.geometry.vessel_diameter == pytest.approx(ppd * 2.0 * quick.radius, rel=1e-12)
+        assert gap_d(grown) == pytest.approx(gap_d(quick), rel=1e-9)
+        assert inertial_number(grown, 15e3) == pytest.approx(inertial_number(quick, 15e3), rel=1e-12)
 
 
 def test_a_result_carries_the_rim_gap_warning():
@@ -254,7 +279,9 @@ def test_a_result_carries_the_rim_gap_warning():
     for target in (9000.0, 8000.0, 7000.0, 6000.0):
         steps.append(StepRecord("preshear", 15000.0, rot / 5.0, rot, full(9000.0), full(15000.0), full(0.02)))
         steps.append(StepRecord("shear", target, rot / 5.0, rot, full(0.7 * target), full(target), full(0.02)))
-    spec = ShearCellSpec.preset("converged").replace(geometry={"wall_friction": 0.3})
+    converged = ShearCellSpec.preset("converged")
+    wedging_head = converged.geometry.vessel_diameter * 0.48  # the gap of 0.02 D, 0.92 d
+    spec = converged.replace(geometry={"wall_friction": 0.3, "head_radius": wedging_head})
     res = ShearTestResult.from_steps(spec, steps, [1500.0] * 4, Provenance("hand", "-", "-", 0, 1.0, 100))
     assert any(w.startswith("the head's rim is 0.92 particle diameters") for w in res.warnings), res.warnings
 

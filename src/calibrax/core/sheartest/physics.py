@@ -152,8 +152,9 @@ def rim_gap_warning(spec: "ShearCellSpec") -> str | None:
     That happens when the gap between the head's rim and the wall (m) lies between one particle
     radius and one diameter (``spec.radius``, m): a particle's centre passes the rim but the particle
     does not fit through. A wall with friction holds the wedge, and τ then measures it, not the
-    powder. The presets' gap is 0.02 D: 0.92 d at ``converged``, where a wall of 0.3 read a
-    preshear τ/σ of 7 to 50 (docs/explanation/sector.md, "A frictional wall and the rim gap").
+    powder. The presets' gaps lie under one radius (:data:`~calibrax.core.sheartest.presets.RIM_GAP_D`);
+    before 2026-12-07 ``converged``'s was 0.02 D, 0.92 d, where a wall of 0.3 read a preshear τ/σ of
+    7 to 50 (docs/explanation/sector.md, "A frictional wall and the rim gap").
     """
     g, r = spec.geometry, spec.radius
     gap = g.vessel_diameter / 2.0 - g.head_radius
@@ -161,6 +162,6 @@ def rim_gap_warning(spec: "ShearCellSpec") -> str | None:
         return None
     return (f"the head's rim is {gap / (2.0 * r):.2f} particle diameters from a frictional wall (geometry.wall_friction = "
             f"{g.wall_friction:g}): a particle can wedge between a blade's edge and the wall, and τ then measures the "
-            f"wedge, not the powder; leave a gap under half a diameter (geometry.head_radius ≥ "
-            f"{(g.vessel_diameter / 2.0 - 0.5 * r) * 1e3:.3f} mm) or a frictionless wall "
+            f"wedge, not the powder; leave a gap of at most half a diameter (geometry.head_radius ≥ "
+            f"{math.ceil((g.vessel_diameter / 2.0 - r) * 1e6) / 1e3:.3f} mm; the presets leave 0.24 d) or a frictionless wall "
             "(docs/explanation/sector.md#a-frictional-wall-and-the-rim-gap)")

@@ -33,7 +33,8 @@ PROCEDURES: dict[str, dict[str, Any]] = {
 #: the 2 % the convergence study's rule allows, so the finest measured cell is the preset; its
 #: density is still rising with size (docs/explanation/sector.md, "The converged preset").
 #: Only a backend with rotational periodicity (numba_dem) runs it.
-#: A preset may state ``sector`` (k of ``geometry.sector``; 1, the full cell, when absent).
+#: A preset may state ``sector`` (k of ``geometry.sector``; 1, the full cell, when absent) and
+#: ``rim_gap_d`` (the head's radius is D/2 − rim_gap_d·d; 0.48 D when absent).
 #: Every preset preshears as the FT4 does, until τ/σ is steady (two windows of 0.1 rad within 5 %;
 #: at least 0.3 rad, at most 1 rad): the former fixed preshears of 0.12–0.15 rad ended inside the
 #: transient (at tiny τ/σ fell from 0.94 to a steady 0.55 over the first 0.45 rad of one preshear),
@@ -43,18 +44,26 @@ PROCEDURES: dict[str, dict[str, Any]] = {
 #: ``quick``'s inertial number at the 15 kPa preshear (5 rad/s at 12 per diameter, Table 1 density;
 #: :func:`calibrax.core.sheartest.physics.inertial_number`), which ``converged`` keeps at its size
 QUICK_INERTIAL_NUMBER = 0.0015455701860478547
+#: The gap between the head's rim and the vessel wall, in particle diameters, of a preset that
+#: states ``rim_gap_d`` (``paper``, ``converged``); the others set the head's radius to 0.48 D, a gap
+#: of 0.02 D (0.18 d at ``tiny``, 0.24 d at ``quick``). 0.02 D at 34 and 46 per diameter is 0.68 and
+#: 0.92 d, where a particle wedges between a blade's edge and a frictional wall and τ measures the
+#: wedge (docs/explanation/sector.md, "A frictional wall and the rim gap"); 0.24 d, ``quick``'s, is
+#: under one radius, so nothing enters it.
+RIM_GAP_D = 0.24
 STEADY_PRESHEAR = {"preshear_rotation": 0.30, "preshear_max_rotation": 1.0, "steady_window": 0.1,
                    "steady_tolerance": 0.05}
 FIDELITY_PRESETS: dict[str, dict[str, Any]] = {
     "paper": {
         "particles_per_diameter": 34.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
+        "rim_gap_d": RIM_GAP_D,
         "procedure": {"rotation_rate": 0.5, **STEADY_PRESHEAR, "shear_rotation": 0.30,
                       "settle_time": 0.02, "peak_window": 0.01},
         "numerics": {"dt_fraction": 0.05, "sample_interval": 2.0e-4},
     },
     "converged": {
         "particles_per_diameter": 46.0, "height_ratio": 0.88, "blade_count": 18, "blade_height_d": 2.0, "base_ribs": 18,
-        "sector": 9,
+        "rim_gap_d": RIM_GAP_D, "sector": 9,
         "procedure": {"inertial_number": QUICK_INERTIAL_NUMBER, **STEADY_PRESHEAR, "shear_rotation": 0.30,
                       "settle_time": 0.005, "peak_window": 0.03, "branches": True, "peak_noise_correction": 2.5},
         "numerics": {"dt_fraction": 0.15, "sample_interval": 2.0e-4},

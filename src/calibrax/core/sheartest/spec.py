@@ -401,7 +401,7 @@ class ShearCellSpec:
         geometry = Geometry(
             vessel_diameter=diameter,
             fill_height=p["height_ratio"] * diameter,
-            head_radius=0.48 * diameter,
+            head_radius=diameter / 2.0 - p["rim_gap_d"] * d if "rim_gap_d" in p else 0.48 * diameter,
             blade_count=p["blade_count"],
             blade_height=p["blade_height_d"] * d,
             hub_radius=0.1 * diameter,

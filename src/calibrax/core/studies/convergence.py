@@ -33,15 +33,18 @@ OPTIONS = {"particles_per_diameter": "--particles-per-diameter", "dt_fraction": 
 
 
 def with_particles_per_diameter(spec: ShearCellSpec, ppd: float) -> ShearCellSpec:
-    """The same cell at another particle count: D = ppd·2R, with H/D, head and hub radii kept
-    in proportion to D (the paper's way: fixed R and H/D), and the rotation rate scaled by the
-    inverse, so that the inertial number (∝ ω R_head) is the same in every cell and the size axis
-    does not mix in the shear rate."""
+    """The same cell at another particle count: D = ppd·2R, with H/D and the hub radius kept in
+    proportion to D (the paper's way: fixed R and H/D), the gap between the head's rim and the wall
+    kept in metres (the particles stay, and a gap scaled with D wedges them once it passes one
+    radius: docs/explanation/sector.md, "A frictional wall and the rim gap"), and the rotation rate
+    scaled by the head radius's inverse, so that the inertial number (∝ ω R_head) is the same in
+    every cell and the size axis does not mix in the shear rate."""
     g = spec.geometry
     scale = ppd * 2.0 * spec.radius / g.vessel_diameter
+    head_radius = g.vessel_diameter * scale / 2.0 - (g.vessel_diameter / 2.0 - g.head_radius)
     return spec.replace(geometry={"vessel_diameter": g.vessel_diameter * scale, "fill_height": g.fill_height * scale,
-                                  "head_radius": g.head_radius * scale, "hub_radius": g.hub_radius * scale},
-                        procedure={"rotation_rate": spec.procedure.rotation_rate / scale})
+                                  "head_radius": head_radius, "hub_radius": g.hub_radius * scale},
+                        procedure={"rotation_rate": spec.procedure.rotation_rate * g.head_radius / head_radius})
 
 
 def vary(spec: ShearCellSpec, knob: str, value: float) -> ShearCellSpec:
