@@ -6,7 +6,8 @@ the bulk density at the preshear stress) and a curves CSV with every shear step'
     python examples/make_pseudo_experiment.py --simulator numba_dem --preset tiny \
         --set youngs_modulus=2e10 --set sliding_friction=0.35 --replicates 3 -o examples/data/pseudo-numba-tiny
 
-(``--effect wall_friction=0.2``, ``--effect sigma_log=0.3``, ``--effect bond_number=0.6`` or
+(``--store runs/exp.h5`` keeps each replicate as it ends, so that a killed run resumes;
+``--effect wall_friction=0.2``, ``--effect sigma_log=0.3``, ``--effect bond_number=0.6`` or
 ``--effect cohesion_energy_density=2e7`` switches an effect on) writes ``pseudo-numba-tiny.yaml``, ``pseudo-numba-tiny-points.csv`` and ``pseudo-numba-tiny-curves.csv``.
 
 Made data is never presented as measured: the header names the backend, its version, the cell
@@ -17,6 +18,7 @@ or above calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE (2³⁰), where no campa
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
 
@@ -46,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
                         "--threads 2 --workers 1")
     p.add_argument("--seed", type=int, default=EXPERIMENT_SEED_BASE + 1000,
                    help=f"first replicate's seed, ≥ {EXPERIMENT_SEED_BASE} (campaigns never use those)")
+    p.add_argument("--store", type=Path, default=None,
+                   help="an HDF5 file that keeps each replicate as it ends, so that a killed run resumes "
+                        "without repeating one (for the converged cell: 42 CPU-minutes a replicate)")
     p.add_argument("-o", "--output", type=Path, required=True, help="path and stem of the files to write")
     args = p.parse_args(argv)
     if args.seed < EXPERIMENT_SEED_BASE:
@@ -76,9 +81,16 @@ def main(argv: list[str] | None = None) -> int:
               f"C = {locus.cohesion:.0f} Pa, AIF = {locus.aif_deg:.1f}°, bulk density {result.bulk_density[0]:.0f} kg/m³",
               file=sys.stderr)
 
-    path = write_pseudo_experiment(spec, args.simulator, args.output, args.replicates, args.seed,
-                                   f"the '{args.preset}' preset and the '{args.procedure}' procedure", progress,
-                                   args.workers)
+    words = f"the '{args.preset}' preset and the '{args.procedure}' procedure"
+    if args.store is not None:
+        from calibrax.core.studies.pseudo_study import write_pseudo_experiment_resumably
+
+        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
+        path = write_pseudo_experiment_resumably(spec, args.simulator, args.output, args.store, args.replicates,
+                                                 args.seed, words, args.workers)
+    else:
+        path = write_pseudo_experiment(spec, args.simulator, args.output, args.replicates, args.seed, words, progress,
+                                       args.workers)
     print(f"wrote {path} and its points and curves", file=sys.stderr)
     return 0
 

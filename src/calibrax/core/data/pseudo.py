@@ -46,6 +46,15 @@ def _simulate(simulator_name: str, spec: ShearCellSpec) -> ShearTestResult:
         return get_manager().create("simulator", simulator_name).simulate(spec, Path(work))
 
 
+def replicate_seeds(first_seed: int, replicates: int) -> list[int]:
+    """The replicates' seeds, ``first_seed`` on; ConfigError (key ``seed``) below
+    :data:`EXPERIMENT_SEED_BASE`, where a campaign's simulation could re-run a replicate."""
+    if first_seed < EXPERIMENT_SEED_BASE:
+        raise ConfigError("seed", f"must be ≥ {EXPERIMENT_SEED_BASE}: below it a campaign's simulation could "
+                                  "re-run a replicate")
+    return [first_seed + r for r in range(replicates)]
+
+
 def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path, replicates: int = 3,
                             first_seed: int = EXPERIMENT_SEED_BASE + 1000, cell_words: str = "",
                             on_result: Callable[[int, ShearTestResult], None] | None = None,
@@ -67,11 +76,8 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
     """
     from calibrax.core.registry import get_manager
 
-    if first_seed < EXPERIMENT_SEED_BASE:
-        raise ConfigError("seed", f"must be ≥ {EXPERIMENT_SEED_BASE}: below it a campaign's simulation could "
-                                  "re-run a replicate")
+    seeds = replicate_seeds(first_seed, replicates)
     simulator = get_manager().create("simulator", simulator_name)
-    seeds = [first_seed + r for r in range(replicates)]
     specs = [spec.replace(numerics={"seed": seed}) for seed in seeds]
     if workers > 1:
         import concurrent.futures as cf
@@ -84,11 +90,19 @@ def write_pseudo_experiment(spec: ShearCellSpec, simulator_name: str, out: Path,
     for r, result in enumerate(results):
         if on_result:
             on_result(r, result)
+    return write_pseudo_results(spec, simulator_name, simulator.version(), seeds, results, out, cell_words)
+
+
+def write_pseudo_results(spec: ShearCellSpec, simulator_name: str, version: str, seeds: list[int],
+                         results: list[ShearTestResult], out: Path, cell_words: str = "") -> Path:
+    """Write the replicates ``results`` (one per seed of ``seeds``, each ``spec`` at that seed, run
+    by ``simulator_name`` at ``version``) as a pseudo-experiment ``out``.yaml and its CSVs, with the
+    provenance that says it is made data; returns the header YAML's path."""
     g = spec.geometry
     base = f"{g.base_ribs} ribs {g.rib_height * 1e3:.2g} mm high" if g.base_ribs else "flat"
     provenance = [
         "PSEUDO-EXPERIMENT, NOT MEASURED DATA.",
-        f"Made by {simulator_name} ({simulator.version()}) with {cell_words or 'the ' + spec.name + ' cell'} "
+        f"Made by {simulator_name} ({version}) with {cell_words or 'the ' + spec.name + ' cell'} "
         f"(base: {base}), spec hash {spec.spec_hash()} (seed 0 variant).",
         "Material: " + ", ".join(f"{k} = {v:g}" for k, v in sorted(vars(spec.material).items())),
         f"Effects: {effects_text(spec)}.",
