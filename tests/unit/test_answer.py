@@ -81,6 +81,37 @@ def test_a_parameter_bounded_from_one_side_is_said_to_be_so():
     assert Answer.from_dict(answer.to_dict()) == answer
 
 
+def test_a_region_in_two_pieces_names_both_and_counts_their_sum_not_their_hull():
+    """Two valleys of μs (u = 0.15 and 0.85: μs 0.22 and 0.78): the region's projection is two
+    pieces, each some 0.05 wide on either side of its valley before the model's own uncertainty, where its hull spans 80 % and used to read "anywhere" (issue
+    51's quickstart on campaign seed 1: a plausible core plus the unsampled ends)."""
+    def two_valleys(x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        clean = 60.0 * np.minimum(np.abs(x[:, 1] - 0.15), np.abs(x[:, 1] - 0.85))
+        return np.abs(clean + 0.5 * rng.standard_normal(len(x)))
+
+    model, x, y = _fit(two_valleys, n=40)
+    answer = answer_from_model(model, SPACE, THRESHOLD, 0.95, len(y))
+    (a_lo, a_hi), (b_lo, b_hi) = answer.pieces["sliding_friction"]
+    assert a_lo < 0.22 < a_hi < 0.5 < b_lo < 0.78 < b_hi
+    lo, hi = answer.ranges["sliding_friction"]
+    assert (lo, hi) == (a_lo, b_hi) and (hi - lo) / 0.8 >= 0.8  # the hull alone would say "not constrained"
+    assert answer.constrained["sliding_friction"] and answer.spans["sliding_friction"] < 0.6
+    assert answer.spans["sliding_friction"] == pytest.approx((a_hi - a_lo + b_hi - b_lo) / 0.8)
+    assert "youngs_modulus" not in answer.pieces and not answer.constrained["youngs_modulus"]
+    text = answer.statement()
+    assert f"(plausible {a_lo:.3g} to {a_hi:.3g} or {b_lo:.3g} to {b_hi:.3g}: " in text
+    assert Answer.from_dict(answer.to_dict()) == answer
+
+
+def test_the_pieces_join_across_the_grids_own_holes():
+    from calibrax.core.search.answer import PIECE_BINS, projection_pieces
+
+    step = 1.0 / PIECE_BINS
+    assert projection_pieces(np.array([0.1, 0.1 + 3.5 * step, 0.6])) == [(0.1, 0.1 + 3.5 * step), (0.6, 0.6)]
+    assert projection_pieces(np.array([0.1, 0.1 + 4.5 * step])) == [(0.1, 0.1), (0.1 + 4.5 * step,) * 2]
+    assert projection_pieces(np.array([0.0, 1.0])) == [(0.0, 0.0), (1.0, 1.0)]
+
+
 def test_the_recommendation_is_the_models_minimum_not_the_luckiest_seed():
     """One evaluation on the valley's flank (mean d 4.5, outside the noise) drew a lucky seed
     (d = 0.05, below every other): the observed best is there, the recommendation stays in the

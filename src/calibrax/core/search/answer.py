@@ -14,7 +14,9 @@ reads the Kriging model instead:
   them, as history matching's not-ruled-out-yet region does;
 * a parameter is **constrained** when the region's projection on it covers less than
   :data:`UNCONSTRAINED_SHARE` of its searched range (unit-cube, i.e. log, scale where the parameter
-  is log-scaled); otherwise the answer says the test does not constrain it, and, where the region
+  is log-scaled). The projection may fall apart into pieces (a plausible core and an unsampled end
+  the model cannot rule out yet): it covers the sum of the pieces, not the hull from the first to
+  the last, and the statement names each piece; otherwise the answer says the test does not constrain it, and, where the region
   stops at least :data:`ONE_SIDED_SHARE` short of one end of the range, which side the test rules
   out ("μs ≥ 0.2: the test rules out lower values, not higher ones"): a coarse cell whose features
   saturate bounds a parameter from one side only (docs/explanation/answer.md).
@@ -40,6 +42,11 @@ ONE_SIDED_SHARE = 0.1
 REGION_SIGMAS = 2.0
 #: scrambled Sobol points over the box on which the region and the recommendation are evaluated
 GRID_POINTS = 4096
+#: the projection's pieces are read on this many bins of each parameter's searched range (unit
+#: cube); a run of more than PIECE_GAP_BINS empty bins between plausible ones splits a piece (fewer
+#: are the Sobol grid's own holes: 4 096 points leave about 80 to a bin of a 2-D box)
+PIECE_BINS = 50
+PIECE_GAP_BINS = 2
 
 
 
@@ -72,6 +79,9 @@ class Answer:
         spans: {name: the region's projection as a share of the searched range, unit cube (log
             scale for a log-scaled parameter)}, in [0, 1]; empty for stores written before it.
         log_scaled: names of the log-scaled parameters (their width is stated as a factor).
+        pieces: {name: the disjoint intervals, low to high, of the region's projection} (natural
+            units); a parameter with one piece, or a store written before them, has none here and
+            its interval is ``ranges``'.
     """
 
     params: dict[str, float]
@@ -87,6 +97,7 @@ class Answer:
     ruled_out: dict[str, tuple[bool, bool]] = field(default_factory=dict)
     spans: dict[str, float] = field(default_factory=dict)
     log_scaled: tuple[str, ...] = ()
+    pieces: dict[str, tuple[tuple[float, float], ...]] = field(default_factory=dict)
 
     def statement(self) -> str:
         """"μs = 0.33 (plausible 0.29–0.38); E anywhere in 5–50 GPa: the test does not constrain it."."""
@@ -101,7 +112,11 @@ class Answer:
         parts = []
         for name, value in self.params.items():
             lo, hi = self.ranges[name]
-            if self.constrained[name]:
+            if self.constrained[name] and len(self.pieces.get(name, ())) > 1:
+                within = " or ".join(f"{_show(name, a)} to {_show(name, b)}" for a, b in self.pieces[name])
+                parts.append(f"{_symbol(name)} = {_show(name, value)} (plausible {within}: "
+                             f"{100 * self.spans[name]:.0f} % of the searched range)")
+            elif self.constrained[name]:
                 parts.append(f"{_symbol(name)} = {_show(name, value)} (plausible {_show(name, lo)} to "
                              f"{_show(name, hi)}{self._width(name, lo, hi)})")
             else:
@@ -149,6 +164,7 @@ class Answer:
         d["bounds"] = {k: list(v) for k, v in self.bounds.items()}
         d["ruled_out"] = {k: list(v) for k, v in self.ruled_out.items()}
         d["log_scaled"] = list(self.log_scaled)
+        d["pieces"] = {k: [list(p) for p in v] for k, v in self.pieces.items()}
         return d
 
     @classmethod
@@ -161,7 +177,27 @@ class Answer:
                    bounds={k: (float(v[0]), float(v[1])) for k, v in d.get("bounds", {}).items()},
                    ruled_out={k: (bool(v[0]), bool(v[1])) for k, v in d.get("ruled_out", {}).items()},
                    spans={k: float(v) for k, v in d.get("spans", {}).items()},
-                   log_scaled=tuple(d.get("log_scaled", ())))
+                   log_scaled=tuple(d.get("log_scaled", ())),
+                   pieces={k: tuple((float(a), float(b)) for a, b in v) for k, v in d.get("pieces", {}).items()})
+
+
+def projection_pieces(values: np.ndarray) -> list[tuple[float, float]]:
+    """The disjoint intervals that unit-cube coordinates ``values`` (shape (n,), n ≥ 1) fall in,
+    low to high: :data:`PIECE_BINS` bins, runs of plausible bins joined across gaps of at most
+    :data:`PIECE_GAP_BINS` empty ones; each interval from its lowest value to its highest."""
+    bins = np.clip((values * PIECE_BINS).astype(int), 0, PIECE_BINS - 1)
+    occupied = np.unique(bins)
+    runs, start = [], occupied[0]
+    for prev, b in zip(occupied[:-1], occupied[1:]):
+        if b - prev - 1 > PIECE_GAP_BINS:
+            runs.append((start, prev))
+            start = b
+    runs.append((start, occupied[-1]))
+    out = []
+    for a, b in runs:
+        inside = values[(bins >= a) & (bins <= b)]
+        out.append((float(inside.min()), float(inside.max())))
+    return out
 
 
 def grid(dim: int, n: int = GRID_POINTS, seed: int = 0) -> np.ndarray:
@@ -204,14 +240,19 @@ def answer_from_model(model, space: ParameterSpace, threshold: float, rate: floa
     names = space.names
     params = space.as_dict(space.from_unit(best_u.reshape(1, -1))[0])
     bounds = {p.name: (float(p.low), float(p.high)) for p in space.parameters}
-    ranges, constrained, ruled_out, spans = {}, {}, {}, {}
+    ranges, constrained, ruled_out, spans, pieces = {}, {}, {}, {}, {}
     if inside.any():
         sub = cand[inside]
         nat = space.from_unit(sub)
         for j, name in enumerate(names):
             ranges[name] = (float(nat[:, j].min()), float(nat[:, j].max()))
             low_u, high_u = float(sub[:, j].min()), float(sub[:, j].max())
-            spans[name] = high_u - low_u
+            parts = projection_pieces(sub[:, j])
+            # a piece of one grid point (a corner) counts as one bin
+            spans[name] = min(1.0, sum(max(b - a, 1.0 / PIECE_BINS) for a, b in parts)) if len(parts) > 1 \
+                else high_u - low_u
+            if len(parts) > 1:
+                pieces[name] = tuple(tuple(float(v) for v in space.parameters[j].from_unit(np.array(piece))) for piece in parts)
             constrained[name] = spans[name] < UNCONSTRAINED_SHARE
             ruled_out[name] = (low_u >= ONE_SIDED_SHARE, high_u <= 1.0 - ONE_SIDED_SHARE)
     else:
@@ -219,4 +260,4 @@ def answer_from_model(model, space: ParameterSpace, threshold: float, rate: floa
     return Answer(params=params, predicted=float(pred[0]), predicted_sd=float(pred_sd[0]), threshold=float(threshold),
                   rate=float(rate), ranges=ranges, constrained=constrained, region_share=float(inside.mean()),
                   n_points=int(n_points), bounds=bounds, ruled_out=ruled_out, spans=spans,
-                  log_scaled=tuple(p.name for p in space.parameters if p.log))
+                  log_scaled=tuple(p.name for p in space.parameters if p.log), pieces=pieces)
