@@ -99,7 +99,8 @@ def test_enqueued_points_run_first_and_a_resume_runs_new_ones(tmp_path):
     run_campaign(load_config(path))
     store = CampaignStore(tmp_path / "runs/double.h5")
     points = store.points()
-    assert len(points) == 4 and points[0].batch == 0 and points[0].acquisition == "enqueued+sobol(initial)"
+    assert len(points) == 4 and {p.batch for p in points} == {0}
+    assert [p.acquisition for p in points] == ["enqueued"] + ["sobol(initial)"] * 3  # each point its own source
     assert points[0].params() == pytest.approx({k: float(v) for k, v in first.items()}, rel=1e-12)
     later = {"youngs_modulus": 8.0e9, "sliding_friction": 0.6}
     write_double_campaign(tmp_path, enqueue=[first, later], budget={"initial": 3, "iterations": 0})

@@ -254,9 +254,13 @@ class CampaignStore:
             return json.loads(f.attrs["config"])
 
     def add_batch(self, batch: int, unit: np.ndarray, natural: np.ndarray, names: list[str], seeds: list[list[int]],
-                  acquisition: str, model: dict[str, Any] | None, fidelities: list[str] | None = None) -> list[int]:
+                  acquisition: str | list[str], model: dict[str, Any] | None,
+                  fidelities: list[str] | None = None) -> list[int]:
         """Record proposed points (shape (q, d)) and the model they came from; return their ids.
-        ``fidelities``: each point's fidelity preset, in a multi-fidelity campaign."""
+        ``acquisition``: what proposed them, one for the batch or one per point (an initial design's
+        enqueued and Sobol points); ``fidelities``: each point's fidelity preset, in a
+        multi-fidelity campaign."""
+        sources = [acquisition] * len(unit) if isinstance(acquisition, str) else list(acquisition)
 
         def add(f: h5py.File) -> list[int]:
             start = len(f["points"])
@@ -266,14 +270,15 @@ class CampaignStore:
                 g = f["points"].create_group(f"p{pid:06d}")
                 g.attrs.update({"batch": batch, "unit": np.asarray(unit[j], float),
                                 "natural": np.asarray(natural[j], float), "names": json.dumps(names),
-                                "seeds": np.asarray(seeds[j], dtype=np.int64), "acquisition": acquisition,
+                                "seeds": np.asarray(seeds[j], dtype=np.int64), "acquisition": sources[j],
                                 "proposed_at": time.time()})
                 if fidelities is not None:
                     g.attrs["fidelity"] = fidelities[j]
                 ids.append(pid)
             if model is not None:
                 m = f["models"].create_group(f"b{batch:04d}")
-                m.attrs.update({"batch": batch, "acquisition": acquisition, "hyperparameters": json.dumps(model)})
+                m.attrs.update({"batch": batch, "acquisition": "+".join(dict.fromkeys(sources)),
+                                "hyperparameters": json.dumps(model)})
             return ids
 
         return self._mutate(add)

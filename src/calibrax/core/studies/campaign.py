@@ -200,9 +200,9 @@ class Campaign:
         sequence (nested levels: every target point has its cheap twins)."""
         cfg = self.config
         enq = self._unqueued(store.points())
-        source = "enqueued+sobol(initial)" if len(enq) else "sobol(initial)"
         rows, names = self.plan.initial_design(enq, cfg.space.dim, cfg.initial, cfg.seed)
-        self._add_batch(store, 0, rows, source, None, names)
+        sources = ["enqueued"] * len(enq) + ["sobol(initial)"] * (len(rows) - len(enq))
+        self._add_batch(store, 0, rows, sources, None, names)
 
     def _target(self, points: list[PointRecord]) -> int:
         """Points the campaign simulates: the config's, plus those it was warm-started with."""
@@ -364,9 +364,10 @@ class Campaign:
                            level=logging.WARNING, batch=batch)
         return rows
 
-    def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str,
+    def _add_batch(self, store: CampaignStore, batch: int, unit: np.ndarray, source: str | list[str],
                    model: dict | None, fidelities: list[str] | None = None) -> None:
-        """Store proposed points (and, in a multi-fidelity campaign, their ``fidelities``) and submit them."""
+        """Store proposed points (and, in a multi-fidelity campaign, their ``fidelities``) and submit
+        them; ``source`` names what proposed them, for the batch or per point."""
         cfg = self.config
         natural = cfg.space.from_unit(unit)
         first = len(store.points())
@@ -374,8 +375,9 @@ class Campaign:
         ids = store.add_batch(batch, unit, natural, list(cfg.space.names), seeds, source, model, fidelities)
         points = {p.id: p for p in store.points()}
         for pid, row in zip(ids, natural):
-            self._emit("proposed", f"batch {batch}: point {pid} proposed by {source}{_at(points[pid])}: "
-                       f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=source,
+            by = points[pid].acquisition
+            self._emit("proposed", f"batch {batch}: point {pid} proposed by {by}{_at(points[pid])}: "
+                       f"{_fmt_params(cfg.space.as_dict(row))}", batch=batch, point=pid, source=by,
                        params=cfg.space.as_dict(row), **({"fidelity": points[pid].fidelity} if fidelities else {}))
             self._submit(points[pid])
 
