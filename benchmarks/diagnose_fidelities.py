@@ -77,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{interval[0]:.3f} to {interval[1]:.3f}; truth {args.wall_friction}")
     print(f"held-out gap (RMS z): {d.gap_before:.2f} before, {d.gap_after:.2f} after")
     for name, row in d.simulations.get("by_fidelity", {}).items():
-        print(f"{name}: {row['simulations']} simulations, {row['engine_seconds'] / 3600:.2f} CPU-hours")
+        print(f"{name}: {row['simulations']} simulations, {row['cpu_seconds'] / 3600:.2f} CPU-hours "
+              f"({row['engine_seconds'] / 3600:.2f} h of engine wall time)")
     print(json.dumps(d.simulations))
     return 0
 

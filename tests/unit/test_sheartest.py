@@ -364,3 +364,15 @@ def test_a_preshears_steady_value_averages_all_of_it_after_the_first_window():
     tau = np.where(np.arange(1, 101) * 0.004 < 0.099, 12000.0, 9000.0)
     result = _preshear_result([tau] * 4, 0.6)
     np.testing.assert_allclose(result.preshear_shear_stress, 9000.0)
+
+
+def test_a_results_cpu_is_the_engines_own_count_where_it_keeps_one_else_wall_time_by_threads() -> None:
+    """numba_dem counts every thread's process time by stage; a subprocess engine is priced at
+    wall × threads (a diagnosis's and a benchmark's cost are CPU, not wall time)."""
+    from calibrax.core.sheartest.result import Provenance
+
+    counted = Provenance("numba_dem", "0.1", "h", 0, wall_time=600.0, particle_count=10, threads=2,
+                         extra={"stage_cpu": {"pour": 100.0, "shear": 1000.0}})
+    assert counted.cpu_seconds == pytest.approx(1100.0)
+    subprocess_engine = Provenance("liggghts", "3.8", "h", 0, wall_time=600.0, particle_count=10, threads=2)
+    assert subprocess_engine.cpu_seconds == pytest.approx(1200.0)

@@ -52,8 +52,9 @@ def _cost_by_fidelity(d: Diagnosis) -> str:
     rows = d.simulations.get("by_fidelity") or {}
     if not rows:
         return ""
-    return " By fidelity: " + "; ".join(f"{name} {row['simulations']} simulations, {row['engine_seconds'] / 60:.0f} "
-                                        "CPU-min" for name, row in rows.items()) + "."
+    return " By fidelity: " + "; ".join(f"{name} {row['simulations']} simulations, "
+                                        f"{row.get('cpu_seconds', row['engine_seconds']) / 60:.0f} CPU-min"
+                                        for name, row in rows.items()) + "."
 
 
 def markdown(d: Diagnosis) -> str:
@@ -65,7 +66,8 @@ def markdown(d: Diagnosis) -> str:
              + f"; calibrated point " + ", ".join(f"{k} = {v:.4g}" for k, v in d.centre.items()) + ".",
              f"Cost: {d.simulations['total']} simulations ({d.simulations['design']} in the design, "
              f"{d.simulations['design_failed']} of them failed; {d.simulations['confirm']} to confirm), "
-             f"{d.simulations.get('engine_seconds', 0) / 60:.0f} min of engine time in all, "
+             f"{d.simulations.get('engine_seconds', 0) / 60:.0f} min of engine time in all"
+             + (f" ({d.simulations['cpu_seconds'] / 60:.0f} CPU-min)" if "cpu_seconds" in d.simulations else "") + ", "
              f"{d.wall_time / 60:.1f} min of wall time in this run." + _cost_by_fidelity(d), "",
              "## 1. Where the gap lies (calibrated point, replicate seeds)", "", *_metric_line(d),
              *_gap_table(d.before, d.judge_on), "",

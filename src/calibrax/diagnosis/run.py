@@ -364,7 +364,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
             stores_extra = {}
         names = scored.design.names
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
-        done: dict[str, Any] = {"n": 0, "engine": 0.0, "stores": []}
+        done: dict[str, Any] = {"n": 0, "engine": 0.0, "cpu": 0.0, "stores": []}
 
         def simulate(point: DesignPoint, effect: Effect) -> list[dict[str, float]]:
             cases = [design_case(calibrated, backend, point, {effect.name: effect})]
@@ -373,6 +373,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                                  stage_progress(f"confirmation of {effect.name}"), shutdown=False)
             done["n"] += len(point.seeds)
             done["engine"] += sum(r.provenance.wall_time for r in outcomes[0].good)
+            done["cpu"] += sum(r.provenance.cpu_seconds for r in outcomes[0].good)
             done["stores"].append(store.name)
             return gaps.simulated(outcomes[0].good, peak_window)
 
@@ -384,7 +385,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
     finally:
         executor.shutdown()
     engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + done["engine"]
-    sims = {"engine_seconds": int(round(engine)), "design": int(sum(len(p.seeds) for p in points)),
+    cpu = sum(r.provenance.cpu_seconds for o in outcomes for r in o.good) + done["cpu"]
+    sims = {"engine_seconds": int(round(engine)), "cpu_seconds": int(round(cpu)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(scored.failed),
             "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
     if cheap:
@@ -403,21 +405,23 @@ def _box_words(box: Box) -> str:
 
 
 def cost_by_fidelity(calibrated: Calibrated, points: list[DesignPoint], outcomes: list[Any],
-                     confirmed: dict[str, Any]) -> dict[str, dict[str, float]]:
-    """{fidelity: {``simulations``, ``engine_seconds``}} of a diagnosis across fidelities: the
-    design's simulations at each, and the confirmations at the target."""
-    out: dict[str, dict[str, float]] = {name: {"simulations": 0, "engine_seconds": 0.0}   # cheapest first
+                     confirmed: dict[str, Any]) -> dict[str, dict[str, int]]:
+    """{fidelity: {``simulations``, ``engine_seconds`` (wall), ``cpu_seconds``}} of a diagnosis
+    across fidelities: the design's simulations at each, and the confirmations at the target."""
+    keys = ("simulations", "engine_seconds", "cpu_seconds")
+    out: dict[str, dict[str, float]] = {name: dict.fromkeys(keys, 0.0)   # cheapest first
                                         for name in (calibrated.cheap[0] if calibrated.cheap else "", calibrated.target)
                                         if name}
     for point, outcome in zip(points, outcomes):
-        row = out.setdefault(calibrated.fidelity_name(point.fidelity), {"simulations": 0, "engine_seconds": 0.0})
+        row = out.setdefault(calibrated.fidelity_name(point.fidelity), dict.fromkeys(keys, 0.0))
         row["simulations"] += len(point.seeds)
         row["engine_seconds"] += sum(r.provenance.wall_time for r in outcome.good)
-    row = out.setdefault(calibrated.target, {"simulations": 0, "engine_seconds": 0.0})
+        row["cpu_seconds"] += sum(r.provenance.cpu_seconds for r in outcome.good)
+    row = out.setdefault(calibrated.target, dict.fromkeys(keys, 0.0))
     row["simulations"] += confirmed["n"]
     row["engine_seconds"] += confirmed["engine"]
-    return {k: {"simulations": int(v["simulations"]), "engine_seconds": int(round(v["engine_seconds"]))}
-            for k, v in out.items()}
+    row["cpu_seconds"] += confirmed["cpu"]
+    return {k: {key: int(round(v[key])) for key in keys} for k, v in out.items()}
 
 
 def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:

@@ -36,6 +36,17 @@ class Provenance:
     threads: int = 1
     extra: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def cpu_seconds(self) -> float:
+        """The simulation's CPU time (s): the engine's own count where it keeps one (numba_dem's
+        ``stage_cpu``, every thread's process time), else its wall time × ``threads`` (an engine run
+        as a subprocess). Wall time alone misstates CPU: two threads halve it, a busy machine
+        inflates it."""
+        stages = self.extra.get("stage_cpu")
+        if stages:
+            return float(sum(stages.values()))
+        return float(self.wall_time) * max(int(self.threads), 1)
+
 
 @dataclass(frozen=True)
 class ShearTestResult:
