@@ -4,7 +4,11 @@ measured and the recalibration confirmed at the target (docs/explanation/diagnos
 fidelities").
 
     .venv/bin/python benchmarks/diagnose_fidelities.py --workers 2 -o runs/diagnose-fidelities
-    .venv/bin/python benchmarks/diagnose_fidelities.py --target converged --threads 2 --workers 1 -o runs/dfc
+    .venv/bin/python benchmarks/diagnose_fidelities.py --target converged --wall-friction 0.3 --workers 2 \
+        --experiment examples/data/pseudo-numba-converged-wall03.yaml -o runs/dfc
+
+(the second reads the bundled experiment made at ``converged`` with a wall friction of 0.3, three
+replicates, 2.1 CPU-hours; without ``--experiment`` it makes its own into the output folder)
 
 It starts from a known calibrated point (the truth's E and μs, a plausible region around it, as
 tests/integration/test_diagnose_numba_dem.py does at one fidelity), so what it measures is the
