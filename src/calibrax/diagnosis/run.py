@@ -384,13 +384,14 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
         log.info("diagnose: verdict %r: %s", final.name, final.reason)
     finally:
         executor.shutdown()
-    engine = sum(r.provenance.wall_time for o in outcomes for r in o.good) + done["engine"]
-    cpu = sum(r.provenance.cpu_seconds for o in outcomes for r in o.good) + done["cpu"]
+    by_level = cost_by_fidelity(calibrated, points, outcomes, done)
+    engine = sum(row["engine_seconds"] for row in by_level.values())
+    cpu = sum(row["cpu_seconds"] for row in by_level.values())
     sims = {"engine_seconds": int(round(engine)), "cpu_seconds": int(round(cpu)), "design": int(sum(len(p.seeds) for p in points)),
             "design_failed": int(scored.failed),
             "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
     if cheap:
-        sims["by_fidelity"] = cost_by_fidelity(calibrated, points, outcomes, done)
+        sims["by_fidelity"] = {k: {key: int(round(v)) for key, v in row.items()} for k, row in by_level.items()}
     stores = {"design": design_store.name, **stores_extra, **confirm_stores(final, done["stores"])}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
                        scored.ranking, final, sims, time.monotonic() - started,
@@ -405,9 +406,10 @@ def _box_words(box: Box) -> str:
 
 
 def cost_by_fidelity(calibrated: Calibrated, points: list[DesignPoint], outcomes: list[Any],
-                     confirmed: dict[str, Any]) -> dict[str, dict[str, int]]:
-    """{fidelity: {``simulations``, ``engine_seconds`` (wall), ``cpu_seconds``}} of a diagnosis
-    across fidelities: the design's simulations at each, and the confirmations at the target."""
+                     confirmed: dict[str, Any]) -> dict[str, dict[str, float]]:
+    """{fidelity: {``simulations``, ``engine_seconds`` (wall), ``cpu_seconds``}} of a diagnosis:
+    the design's simulations at each level, and the confirmations at the target (one row at one
+    fidelity); the diagnosis's totals are their sums."""
     keys = ("simulations", "engine_seconds", "cpu_seconds")
     out: dict[str, dict[str, float]] = {name: dict.fromkeys(keys, 0.0)   # cheapest first
                                         for name in (calibrated.cheap[0] if calibrated.cheap else "", calibrated.target)
@@ -421,7 +423,7 @@ def cost_by_fidelity(calibrated: Calibrated, points: list[DesignPoint], outcomes
     row["simulations"] += confirmed["n"]
     row["engine_seconds"] += confirmed["engine"]
     row["cpu_seconds"] += confirmed["cpu"]
-    return {k: {key: int(round(v[key])) for key in keys} for k, v in out.items()}
+    return out
 
 
 def study_store(out: Path, kind: str, cases: list[StudyCase]) -> Path:
