@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     from calibrax.core.running.executor import LocalExecutor
     from calibrax.core.search.parameters import ParameterSpace
     from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
-    from calibrax.diagnosis.design import TARGET_RUNS
+    from calibrax.diagnosis.design import LEVEL_POINTS, TARGET_RUNS
 
     def spec(preset: str) -> ShearCellSpec:
         return ShearCellSpec.preset(preset, "paper", material=dict(TRUTH, rolling_friction=0.5),
@@ -70,7 +70,8 @@ def main(argv: list[str] | None = None) -> int:
                             target=args.target, cheap=(args.cheap, spec(args.cheap)))
     # the one-fidelity DEM test's design (tests/integration/test_diagnose_numba_dem.py) at the cheap
     # level, TARGET_RUNS replicates and confirmations at the target
-    budget = Budget(replicates=3, baseline=3, per_effect=5, confirm=TARGET_RUNS, target_replicates=TARGET_RUNS)
+    budget = Budget(replicates=3, baseline=3, per_effect=5, confirm=TARGET_RUNS, target_replicates=TARGET_RUNS,
+                    level_points=LEVEL_POINTS)
     d = diagnose(calibrated, effects_by_name(), out / "walled.diagnosis", LocalExecutor(args.workers), budget=budget)
     interval = d.recalibrated.get("effect_interval", {}).get("wall_friction")
     ranked = d.ranking.models[0]

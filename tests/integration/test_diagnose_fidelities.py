@@ -65,10 +65,15 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     z = {row["name"]: (row["z"], after["z"]) for row, after in zip(data["before"], data["after"])}
     assert abs(z["bulk_density"][0]) > 3 > abs(z["bulk_density"][1]), z
     assert data["gap_after"] < 3, z
-    # the design at tiny but for the target's replicates; the confirmation at quick
+    # the design at tiny but for the target's replicates and the top candidate's point; the
+    # confirmation at quick
     by = data["simulations"]["by_fidelity"]
-    assert by["quick"]["simulations"] == 2 * TARGET_RUNS and data["simulations"]["confirm"] == TARGET_RUNS
-    assert by["tiny"]["simulations"] == data["simulations"]["design"] - TARGET_RUNS
+    levelled = [k for k in data["stores"] if k.startswith("level-")]
+    assert levelled == ["level-size_distribution"], data["stores"]
+    assert by["quick"]["simulations"] == 2 * TARGET_RUNS + 1 and data["simulations"]["confirm"] == TARGET_RUNS
+    assert by["tiny"]["simulations"] == data["simulations"]["design"] - TARGET_RUNS - 1
+    # the double's size distribution acts alike at both levels; one seed at quick reads its scale
+    assert 0.2 < data["level_scale"]["sigma_log"] < 2.0, data["level_scale"]
     assert "By fidelity: tiny " in (out / "diagnosis.md").read_text()
     assert "across fidelities: the design at tiny" in run.stderr
     # the first point, the calibrated one, at quick; the rest at tiny (the effects change the
@@ -81,6 +86,8 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     recalibrated = data["recalibrated"]["effect_values"][HIDDEN[0]]
     at_quick = _with_hidden(ShearCellSpec.preset("quick"), recalibrated).particle_count
     assert confirm == [at_quick] * TARGET_RUNS
+    level = [r.provenance.particle_count for _, _, r in CampaignStore(out / data["stores"][levelled[0]]).iter_results()]
+    assert level == [_with_hidden(ShearCellSpec.preset("quick"), 0.25).particle_count]
 
     # run again: everything resumes from the stores, nothing is simulated again
     before = completions_logged(out / "runs")

@@ -11,7 +11,7 @@ from calibrax import ShearCellSpec
 from calibrax.core.data.experiment import Experiment
 from calibrax.core.search.parameters import ParameterSpace
 from calibrax.diagnosis import effects_by_name
-from calibrax.diagnosis.design import MIN_HALF_WIDTH, TARGET_RUNS, Box, Budget, design_points, reach_points
+from calibrax.diagnosis.design import LEVEL_POINTS, MIN_HALF_WIDTH, TARGET_RUNS, Box, Budget, design_points, reach_points
 from calibrax.diagnosis.effects import TruncatedNormalPrior, UniformPrior
 from calibrax.diagnosis.gap import FeatureGap, feature_gaps, parse_groups
 from calibrax.errors import ConfigError
@@ -92,9 +92,9 @@ def test_a_design_across_fidelities_runs_its_replicates_at_the_target_and_the_re
     effects = effects_by_name()
     budget = Budget.for_total(36, len(effects), TARGET_RUNS)
     k = len(effects)
-    assert budget == Budget(4, 4, (36 - 8 - 2 * TARGET_RUNS) // k, TARGET_RUNS, TARGET_RUNS)
+    assert budget == Budget(4, 4, (36 - 8 - 2 * TARGET_RUNS - LEVEL_POINTS) // k, TARGET_RUNS, TARGET_RUNS, LEVEL_POINTS)
     assert 36 - k < budget.total(k) <= 36
-    assert Budget.across_fidelities().total(3) == Budget().total(3)
+    assert Budget.across_fidelities().total(3) == Budget().total(3) + LEVEL_POINTS
     across = design_points(box, effects, budget, cheap="tiny")
     alone = design_points(box, effects, budget)
     assert across[0].label == "calibrated" and across[0].fidelity == "" and len(across[0].seeds) == TARGET_RUNS

@@ -192,3 +192,71 @@ def test_across_fidelities_the_emulator_reads_the_target_through_the_shift() -> 
     assert lo < 0.8 < hi
     # the shift is the basis's last regressor: target − cheap, recovered within the noise of three seeds
     assert np.all(np.abs(emulator.coef[-1] + level_shift) < 2.0), emulator.coef[-1]
+
+
+def _two_level_design(rng: np.random.Generator, scale: float, level_point: bool) -> Design:
+    """A cheap design and, at the target (both with unit seed noise), three replicates
+    at the calibrated point and, with ``level_point``, one simulation there with the wall at half
+    its range; the target's wall acts as ``scale`` × the cheap level's, its features sit 4 s.d.
+    lower."""
+    cheap = synthetic_design(rng)
+    n_cheap = len(cheap.unit)
+    target_eff = np.zeros((4 if level_point else 3, 3))
+    if level_point:
+        target_eff[3, EFFECTS.index("wall")] = 0.5
+    centre = np.zeros((len(target_eff), 2))
+    at_target = world(centre, target_eff * scale) - 4.0 + rng.normal(0, 1, (len(target_eff), F))
+    groups = np.r_[np.zeros(4, int), np.arange(1, n_cheap - 3), [n_cheap] * 3, [n_cheap + 1] * level_point]
+    return Design(np.vstack([cheap.unit, centre]), np.vstack([cheap.effects, target_eff]), cheap.effect_columns,
+                  np.vstack([cheap.features, at_target]), cheap.names,
+                  np.r_[np.zeros(n_cheap, bool), np.ones(len(target_eff), bool)], groups)
+
+
+def test_across_fidelities_one_point_at_the_target_gives_an_effects_scale_there() -> None:
+    """An effect whose signature at the target is 0.4 of the cheap level's (a rough wall
+    drags a small cell's whole bed, a large cell's shear band only): the shift alone reads the
+    target's wall as a weak one, so the truth falls outside its interval; one simulation at the
+    target with the wall on gives the scale, and the interval holds the truth again."""
+    scale, truth = 0.4, 0.8
+    eff = np.zeros(3)
+    eff[EFFECTS.index("wall")] = truth
+
+    def target(rng: np.random.Generator) -> Target:
+        reps = world(np.zeros((3, 2)), np.repeat(eff[None] * scale, 3, 0)) - 4.0 + rng.normal(0, 1, (3, F))
+        return Target(reps.mean(axis=0), reps.std(axis=0, ddof=1), 3)
+
+    shifted = Emulator.fit(_two_level_design(np.random.default_rng(5), scale, level_point=False))
+    assert shifted.level_scale is None
+    rng = np.random.default_rng(5)
+    design = _two_level_design(rng, scale, level_point=True)
+    measured = target(rng)
+    lo, hi = rank(measured, design.only(list(range(F))), CANDIDATES, emulator=shifted).model("wall").effect_interval["wall"]
+    assert hi < truth, (lo, hi)
+    emulator = Emulator.fit(design)
+    assert emulator.level_scale[EFFECTS.index("wall")] == pytest.approx(scale, rel=0.25)
+    assert emulator.level_scale[EFFECTS.index("psd")] == 1.0
+    ranking = rank(measured, design, CANDIDATES, emulator=emulator)
+    assert ranking.verdict == "wall", ranking.reason
+    lo, hi = ranking.model("wall").effect_interval["wall"]
+    assert lo < truth < hi, (lo, hi)
+
+
+def test_a_misfitting_emulator_is_told_from_seed_noise_by_the_pure_error() -> None:
+    """A response beyond the quadratic (an effect that takes off near the end of its range, as a
+    rough wall's peak τ/σ does at `tiny`): the residual s.d. holds the misfit, the replicates'
+    scatter does not; the lack-of-fit test flags that feature alone, and its noise is the pure
+    error. With the default design's four replicates (3 degrees of freedom) the test at 1 % needs
+    a residual s.d. about five times the pure error: here 8.6 against 1.0 (at `converged` with a
+    rough wall, 0.47 against 0.075)."""
+    rng = np.random.default_rng(2)
+    design = synthetic_design(rng, per_effect=12)
+    groups = np.r_[np.zeros(4, int), np.arange(1, len(design.unit) - 3)]
+    bent = design.features.copy()
+    bent[:, 0] += 200.0 * design.effects[:, EFFECTS.index("wall")] ** 8
+    emulator = Emulator.fit(Design(design.unit, design.effects, design.effect_columns, bent, design.names,
+                                   None, groups))
+    assert emulator.misfit[0] and not emulator.misfit[1:].any(), emulator.lack_of_fit_p
+    assert emulator.sd[0] > 5.0
+    assert emulator.noise_sd[0] == pytest.approx(emulator.pure_sd[0]) and emulator.noise_sd[0] < 2.0
+    assert np.array_equal(emulator.noise_sd[1:], emulator.sd[1:])
+    assert emulator.discrepancy_sd[0] > 5.0 and not emulator.discrepancy_sd[1:].any()

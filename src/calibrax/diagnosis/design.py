@@ -10,7 +10,11 @@ where the top candidate's fit still stops at an edge, the box reaches past it on
 (:meth:`Box.reach`, :func:`reach_points`).
 
 Across fidelities (a multi-fidelity campaign), every point runs at the cheapest fidelity but the
-target's replicates at the calibrated point, which come first (:func:`design_points` with ``cheap``).
+target's replicates at the calibrated point, which come first (:func:`design_points` with ``cheap``),
+and, for each candidate the diagnosis comes to rank first, one point at the target with the effect
+at the middle of its range (:func:`level_point`): an effect's signature need not have the same size
+at both levels (a rough wall drags the whole bed of a small cell, a thin band of a large one), and
+that point gives its scale between them (:meth:`calibrax.diagnosis.scoring.Emulator.fit`).
 """
 
 from __future__ import annotations
@@ -32,8 +36,18 @@ SEED_BASE = 700_000_000
 #: four tests of the converged cell (2 524 CPU-s each) are 2.8 CPU-hours, which leaves the default
 #: design at tiny (48 tests of 70 CPU-s, 0.9 CPU-hours) within issue 51's 4 CPU-hours
 TARGET_RUNS = 2
+#: a diagnosis across fidelities gives at most this many candidates a point at the target (each
+#: when it ranks first; as many as the verdict confirms in turn, ``verdict.MAX_TRIED``); the first
+#: is usually the only one: at `converged`, 0.7 CPU-hours
+LEVEL_POINTS = 2
 #: the target replicates' seeds: above the design's, below the confirmations' (``+ 900``)
 TARGET_SEED_OFFSET = 800
+#: the seeds of each candidate's point at the target (:func:`level_point`): between the reach's and
+#: the target replicates'
+LEVEL_SEED_OFFSET = 700
+#: a candidate's point at the target sets its parameters at this fraction of their range above off:
+#: the middle, where a signature is well above the seeds' noise and short of the range's end
+LEVEL_FRACTION = 0.5
 #: the seeds of the points a reached box adds (:func:`reach_points`): above the design's
 REACH_SEED_OFFSET = 600
 #: a best fit within this share of the box's half-width of its edge is "at the edge" (scaled [−1, 1])
@@ -57,6 +71,8 @@ class Budget:
         target_replicates: in a diagnosis across fidelities, seeds at the calibrated point at the
             target fidelity (the "before" there; ``replicates`` then run at the cheap one, like the
             rest of the design, and ``confirm`` at the target); 0 at one fidelity.
+        level_points: in a diagnosis across fidelities, how many candidates get a point at the
+            target (:func:`level_point`), each when it ranks first; 0 at one fidelity.
     """
 
     replicates: int = 4
@@ -64,9 +80,11 @@ class Budget:
     per_effect: int = 8
     confirm: int = 4
     target_replicates: int = 0
+    level_points: int = 0
 
     def total(self, n_effects: int) -> int:
-        return self.replicates + self.baseline + n_effects * self.per_effect + self.confirm + self.target_replicates
+        return (self.replicates + self.baseline + n_effects * self.per_effect + self.confirm + self.target_replicates
+                + self.level_points)
 
     @classmethod
     def for_total(cls, total: int, n_effects: int, target_runs: int = 0) -> "Budget":
@@ -77,16 +95,18 @@ class Budget:
         small = total < 24
         replicates = confirm = 3 if small else 4
         baseline = 3 if small else 4
+        level = LEVEL_POINTS if target_runs else 0
         if target_runs:
             confirm = target_runs
-        per_effect = (total - replicates - confirm - baseline - target_runs) // max(n_effects, 1)
-        return cls(replicates, baseline, per_effect, confirm, target_runs)
+        per_effect = (total - replicates - confirm - baseline - target_runs - level) // max(n_effects, 1)
+        return cls(replicates, baseline, per_effect, confirm, target_runs, level)
 
     @classmethod
     def across_fidelities(cls) -> "Budget":
         """The default budget of a diagnosis across fidelities: the default design at the cheap
-        fidelity, :data:`TARGET_RUNS` replicates and as many confirmations at the target."""
-        return cls(confirm=TARGET_RUNS, target_replicates=TARGET_RUNS)
+        fidelity, :data:`TARGET_RUNS` replicates and as many confirmations at the target, and up to
+        :data:`LEVEL_POINTS` candidates' points there."""
+        return cls(confirm=TARGET_RUNS, target_replicates=TARGET_RUNS, level_points=LEVEL_POINTS)
 
 
 @dataclass(frozen=True)
@@ -241,3 +261,15 @@ def reach_points(old: Box, box: Box, effect: Effect, budget: Budget, seed: int =
         points.append(DesignPoint(f"reach {effect.name} {k + 1}", dict(zip(names, map(float, cal[k]))), effect.name,
                                   values, (next(seeds),), cheap))
     return points
+
+
+def level_point(box: Box, effect: Effect, index: int, seed: int = 0) -> DesignPoint:
+    """A candidate's point at the target fidelity (a diagnosis across fidelities): the calibrated
+    parameters at the box's centre, the effect's parameters at :data:`LEVEL_FRACTION` of their
+    range, one seed (``index``: the candidate's position in the list, which keeps each candidate's
+    seed its own)."""
+    names = box.space.names
+    values = {p.name: float(p.off + LEVEL_FRACTION * (p.high - p.off)) for p in effect.parameters}
+    seed_id = SEED_BASE + 1000 * seed + LEVEL_SEED_OFFSET + index
+    return DesignPoint(f"{effect.name} at the target", dict(zip(names, map(float, box.centre))), effect.name, values,
+                       (seed_id,))

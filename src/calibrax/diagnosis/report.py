@@ -79,6 +79,7 @@ def markdown(d: Diagnosis) -> str:
         interval = ", ".join(f"{lo:.3g} to {hi:.3g}" for lo, hi in m.effect_interval.values()) or "–"
         lines.append(f"| {m.label} | {m.probability:.3f} | {m.log_evidence:.2f} | {best} | {interval} | "
                      f"{m.max_abs_z:.2f} | {'; '.join(m.prior_text) or '–'} |")
+    lines += _emulator_findings(d)
     lines += ["", "## 3. Does it survive its confirmation", "", *_confirmations(d)]
     if not d.judge_on:
         lines.append(f"No recalibration: every feature the experiment has ({', '.join(d.features)}) is in the groups "
@@ -99,9 +100,26 @@ def markdown(d: Diagnosis) -> str:
                   f"Judged on the held-out features ({', '.join(d.judge_on)}), with fresh seeds:", "",
                   *_before_after(d), "", shrinkage_text(d)]
     lines += ["", f"z = (simulation − experiment) / √(s_exp²/n_exp + s_sim²/n_sim); |z| > {IMPLAUSIBLE_Z:g} is "
-              "implausible. s_sim is one simulation's seed s.d. from the design's residuals; s_exp is the "
-              "replicates' s.d., never below s_sim."]
+              "implausible. s_sim is one simulation's seed s.d. from the design's residuals (from its replicates' "
+              "scatter where the design's emulator misfits the feature); s_exp is the replicates' s.d., never "
+              "below s_sim."]
     return "\n".join(lines) + "\n"
+
+
+def _emulator_findings(d: Diagnosis) -> list[str]:
+    """Where the design's emulator misfits (a finding of its own) and each effect's scale at the
+    target ([] where neither)."""
+    out = []
+    if d.lack_of_fit:
+        rows = "; ".join(f"{k} (residual s.d. {v['residual_sd']:.3g} against the replicates' {v['pure_error_sd']:.3g}, "
+                         f"p = {v['p']:.2g})" for k, v in d.lack_of_fit.items())
+        out += ["", f"**The design's emulator misfits** {rows}: its response there is beyond a quadratic, so those "
+                "features' gaps are judged by the replicates' scatter and the misfit counts as the emulator's own "
+                "error in the scores. A design box closer to the answer, or more points, reads them better."]
+    if d.level_scale:
+        out += ["", "**At the target**, measured by one simulation each: " + "; ".join(
+            f"{k} acts as {v:.3g} × itself at the cheap level" for k, v in d.level_scale.items()) + "."]
+    return out
 
 
 def _confirmations(d: Diagnosis) -> list[str]:

@@ -42,7 +42,8 @@ from calibrax.core.search.parameters import ParameterSpace
 from calibrax.core.sheartest import ShearCellSpec
 from calibrax.core.studies.study import StudyCase, run_study
 from calibrax.diagnosis import gap as gaps
-from calibrax.diagnosis.design import SEED_BASE, Box, Budget, DesignPoint, design_points, reach_points
+from calibrax.diagnosis.design import (SEED_BASE, Box, Budget, DesignPoint, design_points, level_point,
+                                       reach_points)
 from calibrax.diagnosis.effects import Effect, EffectParameter
 from calibrax.diagnosis.scoring import (NO_EFFECT, CandidateSpace, Design, Emulator, Ranking, Target, rank,
                                         score_model)
@@ -148,8 +149,14 @@ class Diagnosis:
     centre: dict[str, float]
     stores: dict[str, str] = field(default_factory=dict)
     metric_gap: dict[str, float] = field(default_factory=dict)
-    #: one simulation's seed s.d. per feature (the design emulator's residuals)
+    #: one simulation's seed s.d. per feature at the target (the design emulator's residuals, or
+    #: the pure error: :attr:`calibrax.diagnosis.scoring.Emulator.noise_sd`)
     seed_sd: dict[str, float] = field(default_factory=dict)
+    #: the features the design emulator misfits beyond the seeds' scatter (:func:`lack_of_fit`)
+    lack_of_fit: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: per effect parameter, its signature's scale at the target against the cheap level
+    #: (a diagnosis across fidelities whose candidates had a point at the target)
+    level_scale: dict[str, float] = field(default_factory=dict)
 
     @property
     def verdict(self) -> str:
@@ -214,7 +221,8 @@ class Diagnosis:
                 "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
                 "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores,
-                "metric_gap": self.metric_gap, "seed_sd": self.seed_sd}
+                "metric_gap": self.metric_gap, "seed_sd": self.seed_sd, "lack_of_fit": self.lack_of_fit,
+                "level_scale": self.level_scale}
 
 
 def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
@@ -342,11 +350,11 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
         peak_window = calibrated.spec.procedure.peak_window
         measured, spaces = gaps.measured(calibrated.experiment, peak_window), candidate_spaces(effects, calibrated.experiment)
 
-        def scored_on(box: Box) -> _Scored:
+        def scored_on(box: Box, points: list[DesignPoint], outcomes: list[Any]) -> _Scored:
             return score_design(measured, spaces, points, [gaps.simulated(o.good, peak_window) for o in outcomes],
                                 sum(len(o.failures) for o in outcomes), box, effect_params, seed)
 
-        scored = scored_on(box)
+        scored = scored_on(box, points, outcomes)
         top = next((m for m in scored.ranking.models if m.name != NO_EFFECT), None)
         wider = box.reach(top.best_unit) if top is not None and scored.ranking.verdict != NO_EFFECT else None
         if wider is not None:
@@ -359,9 +367,14 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                                             "diagnose", stage_progress("reach"), shutdown=False)
             points, box = points + extra, wider
             stores_extra = {"reach": reach_store.name}
-            scored = scored_on(box)
+            scored = scored_on(box, points, outcomes)
         else:
             stores_extra = {}
+        if cheap:
+            scored, points, outcomes = _levelled(scored, scored_on, box, effects, budget, seed, points, outcomes,
+                                                 lambda pt: design_case(calibrated, backend, pt, by_name),
+                                                 lambda cases: _run_stage(out, "level", cases, executor,
+                                                                          "diagnose", stores_extra))
         names = scored.design.names
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
         done: dict[str, Any] = {"n": 0, "engine": 0.0, "cpu": 0.0, "stores": []}
@@ -396,9 +409,50 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
                        scored.ranking, final, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
-                       dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd))
+                       dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd),
+                       lack_of_fit(scored.emulator, names), _level_scale(scored.emulator))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
+
+
+def _run_stage(out: Path, kind: str, cases: list[StudyCase], executor: Executor, label: str,
+               stores: dict[str, str]) -> list[Any]:
+    """Run one more study of the diagnosis into its own store (``kind-<hash>.h5``, recorded in
+    ``stores`` under ``kind-<first case's label>``) and return its outcomes."""
+    store = study_store(out, kind, cases)
+    outcomes = run_study(cases, store, executor, out / "runs" / store.stem, label, stage_progress(kind),
+                         shutdown=False)
+    stores[f"{kind}-{cases[0].label.split(' ')[0]}"] = store.name
+    return outcomes
+
+
+def _levelled(scored: "_Scored", scored_on: Callable[[Box, list[DesignPoint], list[Any]], "_Scored"], box: Box, effects: list[Effect],
+              budget: Budget, seed: int, points: list[DesignPoint], outcomes: list[Any],
+              case_of: Callable[[DesignPoint], StudyCase], run: Callable[[list[StudyCase]], list[Any]]
+              ) -> tuple["_Scored", list[DesignPoint], list[Any]]:
+    """Across fidelities: the candidate ranked first gets one point at the target
+    (:func:`~calibrax.diagnosis.design.level_point`), which gives its signature's scale there, and
+    the design is scored again; where another candidate then ranks first, it gets its own, up to
+    ``budget.level_points`` candidates."""
+    levelled: set[str] = set()
+    while len(levelled) < budget.level_points:
+        top = next((m for m in scored.ranking.models if m.name != NO_EFFECT), None)
+        if top is None or top.name in levelled:
+            break
+        index = next(i for i, e in enumerate(effects) if e.name == top.name)
+        point = level_point(box, effects[index], index, seed)
+        log.info("diagnose: %s ranks first; one simulation at the target with %s gives its signature's size there",
+                 effects[index].label, ", ".join(f"{k} = {v:.4g}" for k, v in point.effect_values.items()))
+        outcomes = outcomes + run([case_of(point)])
+        points = points + [point]
+        levelled.add(top.name)
+        scored = scored_on(box, points, outcomes)
+        scale = scored.emulator.level_scale
+        if scale is not None:
+            log.info("diagnose: at the target, %s", ", ".join(
+                f"{c} acts as {s:.3g} × itself at the cheap level" for c, s in zip(scored.emulator.effect_columns, scale)
+                if s != 1.0))
+    return scored, points, outcomes
 
 
 def _box_words(box: Box) -> str:
@@ -474,17 +528,36 @@ def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace
     rows = [i for i, f in enumerate(feats) if all(math.isfinite(f.get(n, math.nan)) for n in names)]
     y = np.array([[feats[i][n] for n in names] for i in rows])
     design = Design(unit[rows], eff[rows], tuple(effect_params), y, names,
-                    at_target[rows] if not at_target.all() else None)
+                    at_target[rows] if not at_target.all() else None, np.asarray(which)[rows])
     target = _target(experiment, names)
     try:
         emulator = Emulator.fit(design)
     except ValueError as exc:
         raise DiagnosisError(f"{exc} ({failed} of the design's simulations failed); give a larger --budget") from None
     ranking = rank(target, design, spaces, seed, emulator)
-    seed_sd = dict(zip(names, map(float, emulator.sd)))
+    seed_sd = dict(zip(names, map(float, emulator.noise_sd)))
     centre_sims = [feats[i] for i, w in enumerate(which) if w == 0]
     before = gaps.feature_gaps(centre_sims, experiment, names, seed_sd)
     return _Scored(design, target, spaces, ranking, experiment, seed_sd, before, failed, emulator)
+
+
+def _level_scale(emulator: Emulator) -> dict[str, float]:
+    """{effect parameter: λ} of the columns a target simulation measured (empty: none)."""
+    if emulator.level_scale is None:
+        return {}
+    return {c: float(s) for c, s in zip(emulator.effect_columns, emulator.level_scale) if s != 1.0}
+
+
+def lack_of_fit(emulator: Emulator, names: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    """The features the design emulator misfits beyond its seeds' scatter, a finding of its own:
+    {feature: {``residual_sd``, ``pure_error_sd``, ``p``}} (empty where it fits). Such a feature's
+    gap is judged by the pure error, and its misfit enters the likelihood as the emulator's own
+    error (:attr:`calibrax.diagnosis.scoring.Emulator.discrepancy_sd`)."""
+    out = {}
+    for j in np.flatnonzero(emulator.misfit):
+        out[names[j]] = {"residual_sd": float(emulator.sd[j]), "pure_error_sd": float(emulator.pure_sd[j]),
+                         "p": float(emulator.lack_of_fit_p[j]), "pure_error_dof": int(emulator.pure_dof)}
+    return out
 
 
 def _target(experiment: list[dict[str, float]], names: tuple[str, ...]) -> Target:

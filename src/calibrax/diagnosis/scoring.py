@@ -12,12 +12,17 @@ of u join when they predict left-out simulations better (see :meth:`Emulator.fit
 few plausible regions wide seed noise dwarfs any curvature in u, over a whole range it does not. The
 residual s.d. ``s_j`` (seed scatter plus lack of fit, N − p degrees of freedom) and the residuals'
 correlation ``R`` (shrunk half-way to the identity: features of one test move together, and four
-peaks are not four independent witnesses) give the likelihood its covariance.
+peaks are not four independent witnesses) give the likelihood its covariance. Where the residual
+s.d. exceeds the replicates' scatter (the pure error) beyond a lack-of-fit F test at 1 %, the two
+are told apart: the pure error is the seed noise ``S`` and the excess, ``L``, the emulator's own
+error (a rough wall's peak τ/σ at `tiny` takes off beyond any quadratic).
 
 **Likelihood.** The experiment's replicate mean ``y`` against the emulator's mean ``μ(θ)``:
-``y ~ N(μ(θ), Σ(θ))`` with ``Σ = D R D / n_exp + h(θ) S R S``, where ``D`` holds each feature's
-replicate s.d. (never below the simulation's seed s.d. ``S``: a real test scatters at least as
-much as the model's seeds) and ``h(θ) = φᵀ(ΦᵀΦ)⁻¹φ`` is the emulator's own variance.
+``y ~ N(μ(θ), Σ(θ))`` with ``Σ = D R D / n_exp + L R L + h(θ) s R s``, where ``D`` holds each
+feature's replicate s.d. (never below the simulation's seed s.d. ``S``: a real test scatters at
+least as much as the model's seeds), ``L`` the lack of fit (0 where the emulator fits; it does not
+average out over the replicates as their noise does) and ``h(θ) = φᵀ(ΦᵀΦ)⁻¹φ`` the emulator's own
+variance.
 
 **Score: a Bayes factor, not BIC or a likelihood ratio.** Each model (no effect, or one candidate
 switched on) is scored by its evidence ``Z = ∫ L(θ) p(θ) dθ``, the likelihood averaged over the
@@ -105,6 +110,9 @@ class Design:
             None for a design at one fidelity (every simulation at the target). A design across
             two fidelities gives its emulator a shift per feature between them (see
             :meth:`Emulator.fit`).
+        groups: per simulation, the design point it belongs to, shape (N,) of int: the seeds of
+            one point share it, and their scatter is the pure error (:meth:`Emulator.fit`); None:
+            every simulation a point of its own (no pure error).
     """
 
     unit: np.ndarray
@@ -113,11 +121,12 @@ class Design:
     features: np.ndarray
     names: tuple[str, ...]
     at_target: np.ndarray | None = None
+    groups: np.ndarray | None = None
 
     def only(self, keep: list[int]) -> "Design":
         """The same simulations with the features of the columns ``keep`` only."""
         return Design(self.unit, self.effects, self.effect_columns, self.features[:, keep],
-                      tuple(self.names[j] for j in keep), self.at_target)
+                      tuple(self.names[j] for j in keep), self.at_target, self.groups)
 
     @property
     def two_levels(self) -> bool:
@@ -141,7 +150,7 @@ class Emulator:
 
     coef: np.ndarray                 # (p, F)
     gram_inv: np.ndarray             # (p, p), (ΦᵀΦ)⁻¹
-    sd: np.ndarray                   # (F,), residual s.d. of one simulation
+    sd: np.ndarray                   # (F,), residual s.d. of one simulation (seed noise and lack of fit)
     corr: np.ndarray                 # (F, F), shrunk residual correlation
     dof: int
     d: int
@@ -149,6 +158,16 @@ class Emulator:
     quadratic: bool = False
     #: whether the basis holds the target fidelity's shift (a design across two fidelities)
     shifted: bool = False
+    #: per effect column, shape (K,): the target's signature is the cheap level's at this multiple
+    #: of the effect's magnitude (1 where no target simulation had that effect on)
+    level_scale: np.ndarray | None = None
+    #: the pure error: the pooled s.d. of the seeds of one design point, shape (F,) (NaN: no
+    #: point has two seeds), and its degrees of freedom
+    pure_sd: np.ndarray | None = None
+    pure_dof: int = 0
+    #: per feature, shape (F,): the lack-of-fit F test's p-value, residual against pure error (NaN:
+    #: not testable)
+    lack_of_fit_p: np.ndarray | None = None
 
     @classmethod
     def fit(cls, design: Design) -> "Emulator":
@@ -161,39 +180,186 @@ class Emulator:
         A design across two fidelities (:attr:`Design.two_levels`) adds one regressor, the
         indicator of the target fidelity: each feature at the target is the cheap level's response
         plus a constant shift, the AR(1) model of Kennedy and O'Hagan (2000) with ρ = 1 and a
-        constant bias, which is all that the target's few simulations at one point (the calibrated
-        one) can identify. The effects' signatures and the response to the calibrated parameters
-        come from the cheap level; :meth:`predict` answers at the target."""
+        constant bias. Where target simulations have an effect on (a candidate's point at the
+        target, :func:`calibrax.diagnosis.design.level_point`), the effect's magnitude at the
+        target is read on the cheap level's scale through a factor λ per effect column, fitted by
+        least squares over every feature at once (``level_scale``): at `converged` a lateral wall
+        friction of 0.3 moves peak τ/σ as one of 0.04 does at `tiny` (its shear zone is a thin
+        band, not the whole bed), and a constant shift cannot carry that. The signatures' shape
+        across the features and the response to the calibrated parameters come from the cheap
+        level; :meth:`predict` answers at the target.
+
+        The residual s.d. holds seed noise and the basis's lack of fit; the seeds of one design
+        point (the replicates) give the pure error alone, and an F test of the one against the
+        other (``lack_of_fit_p``) says where the emulator misfits (:attr:`noise_sd`)."""
         shifted = design.two_levels
         level = design.at_target.astype(float) if shifted else None
-        linear = basis(design.unit, design.effects, shift=level)
-        n, p = linear.shape
-        if n <= p + 1:
-            raise ValueError(f"the design has {n} simulations; its emulator needs more than {p + 1}")
-        quadratic = False
-        curved = basis(design.unit, design.effects, quadratic=True, shift=level)
-        if n - curved.shape[1] >= MIN_QUADRATIC_DOF:
-            quadratic = _press(curved, design.features) < _press(linear, design.features)
-        phi = curved if quadratic else linear
+        n = design.features.shape[0]
+        scalable = (np.flatnonzero(np.any((design.effects != 0) & design.at_target[:, None], axis=0))
+                    if shifted else np.array([], dtype=int))
+        p_linear = basis(design.unit, design.effects, shift=level).shape[1]
+        if n <= p_linear + 1 + scalable.size:
+            raise ValueError(f"the design has {n} simulations; its emulator needs more than {p_linear + 1 + scalable.size}")
+        scale = np.ones(design.effects.shape[1])
+        if scalable.size:
+            scale = _level_scales(design, level, scalable)
+        effects = _at_level(design.effects, design.at_target if shifted else None, scale)
+        phi, quadratic = _chosen_basis(design.unit, effects, design.features, level)
         gram_inv = np.linalg.pinv(phi.T @ phi)
         coef = gram_inv @ phi.T @ design.features
         resid = design.features - phi @ coef
-        dof = n - np.linalg.matrix_rank(phi)
+        dof = n - np.linalg.matrix_rank(phi) - scalable.size
         sd = np.sqrt(np.sum(resid ** 2, axis=0) / max(dof, 1))
         sd = np.where(sd > 0, sd, np.max(np.abs(design.features), axis=0) * 1e-6 + 1e-12)
         raw = np.corrcoef(resid.T) if resid.shape[1] > 1 else np.ones((1, 1))
         raw = np.nan_to_num(np.atleast_2d(raw))
         corr = CORRELATION_SHRINKAGE * np.eye(raw.shape[0]) + (1 - CORRELATION_SHRINKAGE) * raw
         np.fill_diagonal(corr, 1.0)
-        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic, shifted)
+        pure_sd, pure_dof = pure_error(design.features, design.groups)
+        lof = _lack_of_fit(np.sum(resid ** 2, axis=0), int(dof), pure_sd, pure_dof)
+        return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic, shifted,
+                   scale if scalable.size else None, pure_sd, pure_dof, lof)
+
+    @property
+    def misfit(self) -> np.ndarray:
+        """Per feature, shape (F,) of bool: whether the emulator misfits the design beyond its
+        seeds' scatter (lack-of-fit p-value below :data:`LACK_OF_FIT_P`)."""
+        if self.lack_of_fit_p is None:
+            return np.zeros(self.sd.shape, dtype=bool)
+        return np.nan_to_num(self.lack_of_fit_p, nan=1.0) < LACK_OF_FIT_P
+
+    @property
+    def noise_sd(self) -> np.ndarray:
+        """One simulation's seed s.d., per feature, shape (F,): the residual s.d. (many more
+        degrees of freedom than the replicates give) unless the emulator misfits a feature, then
+        the pure error there. Measured at `converged` with a rough wall: the residual s.d. of peak
+        τ/σ at 6 kPa was 0.47, the replicates' scatter 0.075, and the misfit read as noise hid a
+        gap of three standard errors. The target's own replicates alone are not used, though the
+        target's seeds may scatter less than the cheap level's: two replicates give one degree of
+        freedom, and in the double's two-fidelity test their s.d. came out 2.4 to 6 times below the
+        design's, which called the noise a gap."""
+        if self.pure_sd is None or self.pure_dof < 1:
+            return self.sd
+        return np.where(self.misfit & (self.pure_sd > 0), self.pure_sd, self.sd)
+
+    @property
+    def discrepancy_sd(self) -> np.ndarray:
+        """The emulator's own error where it misfits, per feature, shape (F,): √(residual s.d.² −
+        pure error²) where the lack of fit is significant, 0 elsewhere. Unlike seed noise it does
+        not average out over an experiment's replicates."""
+        if self.pure_sd is None:
+            return np.zeros_like(self.sd)
+        extra = np.sqrt(np.maximum(self.sd ** 2 - np.nan_to_num(self.pure_sd) ** 2, 0.0))
+        return np.where(self.misfit, extra, 0.0)
 
     def predict(self, unit: np.ndarray, effects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean features at the target fidelity, shape (n, F), and the emulator's relative
         variance h, shape (n,)."""
         unit = np.atleast_2d(unit)
+        effects = np.atleast_2d(effects)
+        if self.level_scale is not None:
+            effects = effects * self.level_scale[None, :]
         phi = basis(unit, effects, self.quadratic, shift=np.ones(unit.shape[0]) if self.shifted else None)
         h = np.einsum("ij,jk,ik->i", phi, self.gram_inv, phi)
         return phi @ self.coef, np.maximum(h, 0.0)
+
+
+#: the lack-of-fit F test's p-value below which the emulator misfits a feature
+LACK_OF_FIT_P = 0.01
+#: the range of the effect-by-level factor λ (:meth:`Emulator.fit`), and the grid it is searched on
+LEVEL_SCALE_RANGE = (0.01, 10.0)
+LEVEL_SCALE_GRID = 61
+
+
+def pure_error(features: np.ndarray, groups: np.ndarray | None) -> tuple[np.ndarray, int]:
+    """The pooled s.d. of the simulations within each group (design point), shape (F,), and its
+    degrees of freedom Σ(nᵢ − 1); NaN and 0 where no group has two simulations."""
+    f = features.shape[1]
+    if groups is None:
+        return np.full(f, np.nan), 0
+    ss, dof = np.zeros(f), 0
+    for g in np.unique(groups):
+        rows = features[groups == g]
+        if rows.shape[0] > 1:
+            ss += np.sum((rows - rows.mean(axis=0)) ** 2, axis=0)
+            dof += rows.shape[0] - 1
+    return (np.sqrt(ss / dof) if dof else np.full(f, np.nan)), dof
+
+
+def _lack_of_fit(ss_resid: np.ndarray, dof_resid: int, pure_sd: np.ndarray, pure_dof: int) -> np.ndarray:
+    """Per feature, the p-value of the lack-of-fit F test: the residual's excess over the pure
+    error per degree of freedom, against the pure error's (Draper and Smith, Applied Regression
+    Analysis, 2.1); NaN where there is no pure error or no degree of freedom left for the misfit."""
+    from scipy.stats import f as f_dist
+
+    lof_dof = dof_resid - pure_dof
+    if pure_dof < 1 or lof_dof < 1:
+        return np.full(ss_resid.shape, np.nan)
+    ss_pure = pure_sd ** 2 * pure_dof
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = (np.maximum(ss_resid - ss_pure, 0.0) / lof_dof) / (ss_pure / pure_dof)
+    return np.where(np.isfinite(ratio), f_dist.sf(ratio, lof_dof, pure_dof), np.where(ss_pure > 0, 1.0, np.nan))
+
+
+def _at_level(effects: np.ndarray, at_target: np.ndarray | None, scale: np.ndarray) -> np.ndarray:
+    """Effect columns on the cheap level's scale: the target's rows times λ, shape (N, K)."""
+    if at_target is None:
+        return effects
+    return np.where(at_target[:, None], effects * scale[None, :], effects)
+
+
+def _chosen_basis(unit: np.ndarray, effects: np.ndarray, y: np.ndarray,
+                  level: np.ndarray | None) -> tuple[np.ndarray, bool]:
+    """The linear basis, or the quadratic one where PRESS prefers it (see :meth:`Emulator.fit`)."""
+    linear = basis(unit, effects, shift=level)
+    curved = basis(unit, effects, quadratic=True, shift=level)
+    if y.shape[0] - curved.shape[1] >= MIN_QUADRATIC_DOF and _press(curved, y) < _press(linear, y):
+        return curved, True
+    return linear, False
+
+
+def _level_scales(design: Design, level: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The effect-by-level factors λ (see :meth:`Emulator.fit`), shape (K,): the emulator fitted
+    without the target's simulations that have an effect on predicts them, at the target, with
+    each of ``columns`` times λ; λ minimises that prediction's squared error over the features in
+    units of the emulator's residual s.d., searched on a log grid from
+    ``LEVEL_SCALE_RANGE[0]`` to where the target's largest magnitude reaches the cheap design's
+    (λg = 1: no further, the cheap level's response is not known beyond it), then polished, twice
+    round where there are several. Fitted with those simulations in, λ would instead make them
+    points of high leverage that the effect's terms pass through (measured on the double: λ = 7
+    where the truth is 1)."""
+    from scipy.optimize import minimize_scalar
+
+    probe = design.at_target & np.any(design.effects[:, columns] != 0, axis=1)
+    known = ~probe
+    phi, quadratic = _chosen_basis(design.unit[known], design.effects[known], design.features[known], level[known])
+    coef = np.linalg.lstsq(phi, design.features[known], rcond=None)[0]
+    resid = design.features[known] - phi @ coef
+    sd = np.sqrt(np.sum(resid ** 2, axis=0) / max(int(known.sum()) - phi.shape[1], 1))
+    sd = np.where(sd > 0, sd, 1.0)
+    unit, y = design.unit[probe], design.features[probe]
+
+    def cost(scale: np.ndarray) -> float:
+        effects = design.effects[probe] * scale[None, :]
+        mu = basis(unit, effects, quadratic, shift=np.ones(unit.shape[0])) @ coef
+        return float(np.sum(((y - mu) / sd) ** 2))
+
+    scale = np.ones(design.effects.shape[1])
+    for _ in range(2 if columns.size > 1 else 1):
+        for j in columns:
+            reach = 1.0 / float(np.max(np.abs(design.effects[probe, j])))
+            grid = np.log(np.geomspace(LEVEL_SCALE_RANGE[0], min(LEVEL_SCALE_RANGE[1], reach), LEVEL_SCALE_GRID))
+            step = grid[1] - grid[0]
+
+            def along(log_l: float, j: int = j) -> float:
+                trial = scale.copy()
+                trial[j] = math.exp(log_l)
+                return cost(trial)
+            best = grid[int(np.argmin([along(g) for g in grid]))]
+            lo, hi = max(best - step, grid[0]), min(best + step, grid[-1])
+            res = minimize_scalar(along, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
+            scale[j] = math.exp(res.x if res.fun <= along(best) else best)
+    return scale
 
 
 def _press(phi: np.ndarray, y: np.ndarray) -> float:
@@ -287,10 +453,13 @@ NONE_OF_THEM = "none of the candidates"
 
 def _covariances(target: Target, emulator: Emulator, h: np.ndarray) -> np.ndarray:
     """Σ(θ) for each of n points, shape (n, F, F)."""
-    d_exp = np.where(np.isfinite(target.sd), np.maximum(target.sd, emulator.sd), emulator.sd)
+    noise = emulator.noise_sd
+    d_exp = np.where(np.isfinite(target.sd), np.maximum(target.sd, noise), noise)
     base = (d_exp[:, None] * emulator.corr * d_exp[None, :]) / target.n
     sim = emulator.sd[:, None] * emulator.corr * emulator.sd[None, :]
-    return base[None] + h[:, None, None] * sim[None]
+    miss = emulator.discrepancy_sd
+    discrepancy = miss[:, None] * emulator.corr * miss[None, :]
+    return (base + discrepancy)[None] + h[:, None, None] * sim[None]
 
 
 def log_likelihood(target: Target, emulator: Emulator, unit: np.ndarray,
