@@ -133,7 +133,7 @@ def checkpoints(config, strategy: str, threads: int = 1) -> list[Checkpoint]:
         sims: dict[str, int] = {}
         for p in upto:
             sims[p.fidelity or config.spec.name] = sims.get(p.fidelity or config.spec.name, 0) + len(p.sims)
-        cpu = threads * sum(s.wall_time for p in upto for s in p.sims if np.isfinite(s.wall_time))
+        cpu = sum(s.cpu_seconds(threads) for p in upto for s in p.sims if np.isfinite(s.wall_time))
         if strategy == "sobol":
             best = min(at_target, key=lambda p: p.metric.value)
             out.append(Checkpoint(batch, sims, cpu, best.unit, None))

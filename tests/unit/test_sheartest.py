@@ -376,3 +376,13 @@ def test_a_results_cpu_is_the_engines_own_count_where_it_keeps_one_else_wall_tim
     assert counted.cpu_seconds == pytest.approx(1100.0)
     subprocess_engine = Provenance("liggghts", "3.8", "h", 0, wall_time=600.0, particle_count=10, threads=2)
     assert subprocess_engine.cpu_seconds == pytest.approx(1200.0)
+    # a stored simulation counts the same (a resumed campaign's progress), and a failure, with no
+    # provenance, at wall × the campaign's threads
+    from dataclasses import asdict
+
+    from calibrax.core.search.records import SimulationRecord, Status
+
+    for prov in (counted, subprocess_engine):
+        stored = SimulationRecord(0, 0, Status.DONE, 600.0, provenance=asdict(prov))
+        assert stored.cpu_seconds(threads=4) == pytest.approx(prov.cpu_seconds)
+    assert SimulationRecord(0, 0, Status.FAILED, 600.0).cpu_seconds(threads=4) == pytest.approx(2400.0)

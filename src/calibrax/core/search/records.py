@@ -36,6 +36,16 @@ class SimulationRecord:
     provenance: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
+    def cpu_seconds(self, threads: int = 1) -> float:
+        """Its CPU time (s): the engine's own count where its provenance holds one (numba_dem's
+        ``stage_cpu``, every thread's process time), else the wall time × ``threads`` (the
+        provenance's where it records them: a failed simulation has none); NaN where it never
+        finished. The same rule as :attr:`calibrax.core.sheartest.result.Provenance.cpu_seconds`."""
+        stages = (self.provenance.get("extra") or {}).get("stage_cpu")
+        if stages:
+            return float(sum(stages.values()))
+        return float(self.wall_time) * max(int(self.provenance.get("threads", threads)), 1)
+
 
 @dataclass
 class PointRecord:

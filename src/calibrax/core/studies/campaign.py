@@ -128,7 +128,7 @@ class Campaign:
             for p in points:
                 for s in p.sims:
                     if s.status != Status.PENDING and math.isfinite(s.wall_time):
-                        self._count_cpu(p.fidelity, s.wall_time)
+                        self._count_cpu(p.fidelity, s.cpu_seconds(cfg.spec.numerics.threads))
             complete = len(points) >= target and stored == len(points) * cfg.seeds_per_point
             if created:
                 state = "new campaign"
@@ -410,8 +410,10 @@ class Campaign:
         result, failure, wall = done.result, done.failure, done.wall_time
         if result is not None:
             self._engine_walls.append(wall)
-        if math.isfinite(wall):
-            self._count_cpu(point.fidelity, wall)
+        if result is not None:
+            self._count_cpu(point.fidelity, result.provenance.cpu_seconds)
+        elif math.isfinite(wall):
+            self._count_cpu(point.fidelity, wall * cfg.spec.numerics.threads)
         self._sims_finished += 1
         outcomes = self._outcomes[point.id]
         outcomes[index] = result
