@@ -33,8 +33,9 @@ MIN_HALF_WIDTH = 0.15
 #: below calibrax.core.data.pseudo.EXPERIMENT_SEED_BASE as every simulation seed is
 SEED_BASE = 700_000_000
 #: a diagnosis across fidelities runs this many replicates and as many confirmations at the target:
-#: four tests of the converged cell (2 524 CPU-s each) are 2.8 CPU-hours, which leaves the default
-#: design at tiny (48 tests of 70 CPU-s, 0.9 CPU-hours) within issue 51's 4 CPU-hours
+#: with the first candidate's point there, five tests of the converged cell (2 300–2 500 CPU-s each)
+#: are 3.3 CPU-hours, and the default design at tiny (48 tests of 70 CPU-s) 0.9 more: above issue
+#: 51's 4 CPU-hours, which the smaller design of benchmarks/diagnose_fidelities.py (21 at tiny) meets
 TARGET_RUNS = 2
 #: a diagnosis across fidelities gives at most this many candidates a point at the target (each
 #: when it ranks first; as many as the verdict confirms in turn, ``verdict.MAX_TRIED``); the first
