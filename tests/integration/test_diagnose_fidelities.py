@@ -79,9 +79,14 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     # the first point, the calibrated one, at quick; the rest at tiny (the effects change the
     # particle count, the size distribution's points among them)
     tiny, quick = (ShearCellSpec.preset(name).particle_count for name in ("tiny", "quick"))
-    design = [r.provenance.particle_count for _, _, r in CampaignStore(next(out.glob("design-*.h5"))).iter_results()]
-    assert design[:TARGET_RUNS] == [quick] * TARGET_RUNS and quick not in design[TARGET_RUNS:]
-    assert design.count(tiny) >= len(design) // 2
+
+    def counts(store: str) -> list[int]:
+        return [r.provenance.particle_count for _, _, r in CampaignStore(out / store).iter_results()]
+
+    # the target's replicates in a store of their own, so a change to the cheap design keeps them
+    assert counts(data["stores"]["target"]) == [quick] * TARGET_RUNS
+    design = counts(data["stores"]["design"])
+    assert quick not in design and design.count(tiny) >= len(design) // 2
     confirm = [r.provenance.particle_count for _, _, r in CampaignStore(next(out.glob("confirm-*.h5"))).iter_results()]
     recalibrated = data["recalibrated"]["effect_values"][HIDDEN[0]]
     at_quick = _with_hidden(ShearCellSpec.preset("quick"), recalibrated).particle_count

@@ -17,7 +17,9 @@
    (:mod:`calibrax.diagnosis.verdict`).
 
 Simulations run through the study machinery into ``out/design-<hash>.h5`` and
-``out/confirm-<hash>.h5`` (one per candidate confirmed), each named by a hash of its simulations (the confirmation's point
+``out/confirm-<hash>.h5`` (one per candidate confirmed), and across fidelities
+``out/target-<hash>.h5`` (the target's replicates) and ``out/level-<hash>.h5`` (one per candidate's
+point at the target), each named by a hash of its simulations (the confirmation's point
 depends only on the design's results), so a killed diagnosis resumes without repeating a finished
 simulation, and one whose inputs changed (a resumed campaign's new answer, another ``--fit-on``)
 starts a store of its own beside the old; the outcome is written to ``out/diagnosis.json``.
@@ -344,9 +346,18 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                  "is measured and each recalibration confirmed; the emulator reads the target through the shift "
                  "between them", cheap, budget.target_replicates, calibrated.target)
     try:
-        design_store = study_store(out, "design", cases)
-        outcomes = run_study(cases, design_store, executor, out / "runs" / design_store.stem, "diagnose",
-                             stage_progress("design"), shutdown=False)
+        stores_extra: dict[str, str] = {}
+        # across fidelities the target's replicates keep a store of their own: a change to the cheap
+        # design then reruns none of the costly tests (1.3 CPU-hours at converged)
+        costly = [i for i, p in enumerate(points) if cheap and not p.fidelity]
+        rest = [i for i in range(len(points)) if i not in costly]
+        by_index = dict(zip(costly, _run_stage(out, "target", [cases[i] for i in costly], executor, "diagnose",
+                                               stores_extra, key="target"))) if costly else {}
+        design_store = study_store(out, "design", [cases[i] for i in rest])
+        by_index.update(zip(rest, run_study([cases[i] for i in rest], design_store, executor,
+                                            out / "runs" / design_store.stem, "diagnose", stage_progress("design"),
+                                            shutdown=False)))
+        outcomes = [by_index[i] for i in range(len(points))]
         peak_window = calibrated.spec.procedure.peak_window
         measured, spaces = gaps.measured(calibrated.experiment, peak_window), candidate_spaces(effects, calibrated.experiment)
 
@@ -366,10 +377,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
             outcomes = outcomes + run_study(extra_cases, reach_store, executor, out / "runs" / reach_store.stem,
                                             "diagnose", stage_progress("reach"), shutdown=False)
             points, box = points + extra, wider
-            stores_extra = {"reach": reach_store.name}
+            stores_extra["reach"] = reach_store.name
             scored = scored_on(box, points, outcomes)
-        else:
-            stores_extra = {}
         if cheap:
             scored, points, outcomes = _levelled(scored, scored_on, box, effects, budget, seed, points, outcomes,
                                                  lambda pt: design_case(calibrated, backend, pt, by_name),
@@ -416,13 +425,13 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
 
 
 def _run_stage(out: Path, kind: str, cases: list[StudyCase], executor: Executor, label: str,
-               stores: dict[str, str]) -> list[Any]:
+               stores: dict[str, str], key: str | None = None) -> list[Any]:
     """Run one more study of the diagnosis into its own store (``kind-<hash>.h5``, recorded in
-    ``stores`` under ``kind-<first case's label>``) and return its outcomes."""
+    ``stores`` under ``key``, default ``kind-<first case's label>``) and return its outcomes."""
     store = study_store(out, kind, cases)
     outcomes = run_study(cases, store, executor, out / "runs" / store.stem, label, stage_progress(kind),
                          shutdown=False)
-    stores[f"{kind}-{cases[0].label.split(' ')[0]}"] = store.name
+    stores[key or f"{kind}-{cases[0].label.split(' ')[0]}"] = store.name
     return outcomes
 
 
