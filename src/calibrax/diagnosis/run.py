@@ -346,17 +346,15 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                  "is measured and each recalibration confirmed; the emulator reads the target through the shift "
                  "between them", cheap, budget.target_replicates, calibrated.target)
     try:
-        stores_extra: dict[str, str] = {}
+        stores_run: dict[str, str] = {}
         # across fidelities the target's replicates keep a store of their own: a change to the cheap
         # design then reruns none of the costly tests (1.3 CPU-hours at converged)
         costly = [i for i, p in enumerate(points) if cheap and not p.fidelity]
         rest = [i for i in range(len(points)) if i not in costly]
         by_index = dict(zip(costly, _run_stage(out, "target", [cases[i] for i in costly], executor, "diagnose",
-                                               stores_extra, key="target"))) if costly else {}
-        design_store = study_store(out, "design", [cases[i] for i in rest])
-        by_index.update(zip(rest, run_study([cases[i] for i in rest], design_store, executor,
-                                            out / "runs" / design_store.stem, "diagnose", stage_progress("design"),
-                                            shutdown=False)))
+                                               stores_run, key="target"))) if costly else {}
+        by_index.update(zip(rest, _run_stage(out, "design", [cases[i] for i in rest], executor, "diagnose",
+                                             stores_run, key="design")))
         outcomes = [by_index[i] for i in range(len(points))]
         peak_window = calibrated.spec.procedure.peak_window
         measured, spaces = gaps.measured(calibrated.experiment, peak_window), candidate_spaces(effects, calibrated.experiment)
@@ -373,17 +371,15 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
             log.info("diagnose: %s's best fit sits at the design box's edge (%s): the box reaches past it, to %s, with "
                      "%d more simulations", top.label, _box_words(box), _box_words(wider), len(extra))
             extra_cases = [design_case(calibrated, backend, p, by_name) for p in extra]
-            reach_store = study_store(out, "reach", extra_cases)
-            outcomes = outcomes + run_study(extra_cases, reach_store, executor, out / "runs" / reach_store.stem,
-                                            "diagnose", stage_progress("reach"), shutdown=False)
+            outcomes = outcomes + _run_stage(out, "reach", extra_cases, executor, "diagnose", stores_run,
+                                             key="reach")
             points, box = points + extra, wider
-            stores_extra["reach"] = reach_store.name
             scored = scored_on(box, points, outcomes)
         if cheap:
             scored, points, outcomes = _levelled(scored, scored_on, box, effects, budget, seed, points, outcomes,
                                                  lambda pt: design_case(calibrated, backend, pt, by_name),
                                                  lambda cases: _run_stage(out, "level", cases, executor,
-                                                                          "diagnose", stores_extra))
+                                                                          "diagnose", stores_run))
         names = scored.design.names
         judge = [n for n in names if gaps.group_of(n) not in fit_on]
         done: dict[str, Any] = {"n": 0, "engine": 0.0, "cpu": 0.0, "stores": []}
@@ -414,7 +410,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
             "confirm": int(done["n"]), "total": int(sum(len(p.seeds) for p in points) + done["n"])}
     if cheap:
         sims["by_fidelity"] = {k: {key: int(round(v)) for key, v in row.items()} for k, row in by_level.items()}
-    stores = {"design": design_store.name, **stores_extra, **confirm_stores(final, done["stores"])}
+    stores = {**stores_run, **confirm_stores(final, done["stores"])}
     result = Diagnosis(backend, [e.name for e in effects], skipped, list(fit_on), judge, list(names), scored.before,
                        scored.ranking, final, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
@@ -456,11 +452,10 @@ def _levelled(scored: "_Scored", scored_on: Callable[[Box, list[DesignPoint], li
         points = points + [point]
         levelled.add(top.name)
         scored = scored_on(box, points, outcomes)
-        scale = scored.emulator.level_scale
-        if scale is not None:
+        scales = _level_scale(scored.emulator)
+        if scales:
             log.info("diagnose: at the target, %s", ", ".join(
-                f"{c} acts as {s:.3g} × itself at the cheap level" for c, s in zip(scored.emulator.effect_columns, scale)
-                if s != 1.0))
+                f"{c} acts as {s:.3g} × itself at the cheap level" for c, s in scales.items()))
     return scored, points, outcomes
 
 
