@@ -100,3 +100,41 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     assert again.returncode == 0, again.stderr
     assert completions_logged(out / "runs") == before
     assert json.loads((out / "diagnosis.json").read_text())["verdict"] == "size_distribution"
+
+
+def test_across_fidelities_no_effect_is_confirmed_at_the_target_before_it_is_answered(tmp_path, monkeypatch) -> None:
+    """A plain experiment at quick, diagnosed from a calibrated point whose μs is off: the gap at
+    the target is the calibration's, the baseline's refit through the design's emulator closes it,
+    and "no effect" is answered only once that refit, simulated at quick, bears it out."""
+    from calibrax.core.data.experiment import load_experiment
+    from calibrax.core.data.pseudo import write_pseudo_experiment
+    from calibrax.core.running.executor import LocalExecutor
+    from calibrax.core.search.parameters import ParameterSpace
+    from calibrax.diagnosis import Budget, Calibrated, diagnose, effects_by_name
+    from calibrax.diagnosis.scoring import NO_EFFECT
+
+    for k, v in NOISE.items():
+        monkeypatch.setenv(k, v)
+    truth = {"youngs_modulus": 2e10, "sliding_friction": 0.45}
+    quick = ShearCellSpec.preset("quick", material=truth)
+    experiment = write_pseudo_experiment(quick, "analytic_double", tmp_path / "plain", 3)
+    space = ParameterSpace.from_config({"youngs_modulus": {"low": 5e9, "high": 5e10, "log": True},
+                                        "sliding_friction": {"low": 0.1, "high": 0.9}})
+    off = {"youngs_modulus": 2e10, "sliding_friction": 0.55}
+    calibrated = Calibrated("analytic_double", quick, space, load_experiment(experiment), off,
+                            {"youngs_modulus": (1e10, 4e10), "sliding_friction": (0.4, 0.7)}, target="quick",
+                            cheap=("tiny", ShearCellSpec.preset("tiny", material=truth)))
+    d = diagnose(calibrated, effects_by_name(), tmp_path / "plain.diagnosis", LocalExecutor(1),
+                 budget=Budget.across_fidelities())
+    assert d.verdict == NO_EFFECT, d.reason
+    assert any(abs(g.z) > 3 for g in d.before), "the calibrated point's μs should open a gap at quick"
+    (refit,) = d.final.confirmations
+    assert refit.effect == NO_EFFECT and refit.confirmed, refit.words()
+    assert abs(d.recalibrated["params"]["sliding_friction"] - truth["sliding_friction"]) < 0.05, d.recalibrated
+    assert "at the target" in d.reason
+    quick_count = ShearCellSpec.preset("quick").particle_count
+    assert [r.provenance.particle_count for _, _, r in CampaignStore(tmp_path / "plain.diagnosis" / d.stores["confirm"])
+            .iter_results()] == [quick_count] * TARGET_RUNS
+    # "no effect" settled at the target: no candidate's point there is spent
+    assert not [k for k in d.stores if k.startswith("level-")], d.stores
+    assert d.simulations["by_fidelity"]["quick"]["simulations"] == 2 * TARGET_RUNS

@@ -108,6 +108,40 @@ def test_a_baseline_inside_the_noise_gives_none_whatever_the_posterior(factor):
     assert "within the noise" in v.reason and "only explain noise" in v.reason
 
 
+def test_across_fidelities_no_effect_is_answered_with_its_refit_confirmed_at_the_target():
+    """The baseline fits through the design's emulator; across fidelities its response to the
+    calibrated parameters is the cheap level's, so its refit was simulated at the target: where it
+    holds there, "no effect", with that confirmation as the answer's."""
+    held = _judge(3.0, 0.3, NO_EFFECT)
+    v = decide(_ranking("cohesion", 2.0), FITS, lambda effect: pytest.fail("the refit holds: no candidate is tried"),
+               refit=held)
+    assert v.name == NO_EFFECT and v.confirmations == (held,) and v.adopted is held
+    assert "at the target" in v.reason and "brought into the noise" in v.reason
+
+
+@pytest.mark.parametrize("baseline", [FITS, MISFITS], ids=["fits-without-it", "misfits-with-it"])
+def test_a_refit_the_target_refutes_sends_the_diagnosis_on_to_the_candidates(baseline):
+    """With the refuted refit's simulations in the design, the baseline may misfit or still fit:
+    either way the target has refuted it, and the candidates are tried."""
+    refuted = _judge(3.0, 5.0, NO_EFFECT)
+    assert refuted.outcome == WORSE
+    tried: list[str] = []
+
+    def confirm_double(effect: str) -> Confirmation:
+        tried.append(effect)
+        return _judge(3.0, 0.3, effect)
+
+    v = decide(_ranking("cohesion", 10.0), baseline, confirm_double, refit=refuted)
+    assert v.name == "cohesion" and tried == ["cohesion"]
+    assert v.confirmations[0] is refuted and v.adopted is v.confirmations[1]
+    assert "does not reach the experiment there" in v.reason
+    # where no candidate is worth trying, "none of the candidates", not "no effect"
+    weak = Ranking([_model(NO_EFFECT, 0.0, 0.6), _model("cohesion", -0.5, 0.4)], NO_EFFECT, "no effect")
+    v = decide(weak, baseline, lambda effect: pytest.fail("below the Bayes factor"), refit=refuted)
+    assert v.name == NONE_OF_THEM and v.confirmations == (refuted,) and v.adopted is None
+    assert "does not reach the experiment there" in v.reason
+
+
 def test_a_misfit_no_candidate_is_worth_trying_is_none_of_the_candidates():
     models = [_model(NO_EFFECT, 0.0, 0.6), _model("cohesion", -0.5, 0.4)]
     ranking = Ranking(models, NO_EFFECT, "no effect: the gap is within the noise")

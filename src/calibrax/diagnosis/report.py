@@ -91,9 +91,10 @@ def markdown(d: Diagnosis) -> str:
     else:
         r = d.recalibrated
         lines += [f"Recalibrated with **{r['label']}** on the {' and '.join(d.fit_on)} features ({', '.join(r['fitted_on'])}): "
-                  + ", ".join(f"{k} = {v:.4g}" for k, v in r["params"].items()) + "; "
-                  + ", ".join(f"{k} = {v:.3g} (95 % interval {r['effect_interval'][k][0]:.3g} to "
-                              f"{r['effect_interval'][k][1]:.3g})" for k, v in r["effect_values"].items())
+                  + "; ".join(filter(None, [
+                      ", ".join(f"{k} = {v:.4g}" for k, v in r["params"].items()),
+                      ", ".join(f"{k} = {v:.3g} (95 % interval {r['effect_interval'][k][0]:.3g} to "
+                                f"{r['effect_interval'][k][1]:.3g})" for k, v in r["effect_values"].items())]))
                   + " (the posterior mean; the best fit, "
                   + ", ".join(f"{k} = {v:.4g}" for k, v in r.get("best_fit", {}).items()) + ", lies on the ridge "
                   "the fit features leave).", "",

@@ -37,6 +37,13 @@ The design's ranking (:mod:`calibrax.diagnosis.scoring`) proposes; the verdict d
    listed effect beside it that issue 48 asks to be named).
 3. Where the baseline misfits and no candidate is confirmed, the answer is "none of the
    candidates", with the best candidate and why it failed.
+4. **Across fidelities "no effect" is confirmed too.** The baseline's refit is read through an
+   emulator whose response to the calibrated parameters comes from the cheap level, so where the
+   target's replicates show a gap (beyond the seed noise's limit), the refit is simulated at the
+   target with fresh seeds and judged as a candidate's recalibration is. Refuted there, the
+   baseline does not fit after all, and the candidates are tried as in 2. (Measured at
+   `converged` with a hidden wall friction: the design's emulator refitted μs and called the gap
+   noise, docs/explanation/diagnosis.md, "Across fidelities".)
 
 **The comparison's noise.** "Before" is the calibrated point's seeds against the experiment,
 "after" the recalibration's fresh seeds against the same experiment. Under "the recalibration
@@ -419,27 +426,45 @@ def candidates_to_confirm(ranking: Ranking) -> list[ModelScore]:
 
 
 def decide(ranking: Ranking, baseline: BaselineFit | BaselineTest | None, confirm: Callable[[str], Confirmation] | None,
-           unconfirmed: str = "no feature is held out to confirm it on") -> Verdict:
+           unconfirmed: str = "no feature is held out to confirm it on",
+           refit: Confirmation | None = None) -> Verdict:
     """The verdict (see the module docstring) from the design's ranking, the baseline on the fit
     features and ``confirm``, which recalibrates, simulates and judges one candidate by name.
     ``confirm`` None: nothing can be confirmed (``unconfirmed`` says why), so the design's ranking
-    stands, said to be unconfirmed."""
+    stands, said to be unconfirmed.
+
+    ``refit`` (across fidelities) is the confirmation at the target of the baseline's own refit,
+    run where the baseline fit within the noise through the design's emulator and the target
+    showed a gap (:func:`calibrax.diagnosis.run.refit_at_target`): where it stands, the answer is
+    "no effect"; where the target refuted it, the baseline does not fit after all, and the
+    candidates are tried as where it misfits."""
     best = next((m for m in ranking.models if m.name != NO_EFFECT), None)
     best_name = best.name if best else ""
     if baseline is None or confirm is None:
         return Verdict(ranking.verdict, f"{ranking.reason} (unconfirmed: {unconfirmed})", baseline,
                        (), ranking.unexplained, best_name)
-    if ranking.verdict == NONE_OF_THEM:
+    if ranking.verdict == NONE_OF_THEM and refit is None:
         return Verdict(NONE_OF_THEM, f"none of the candidates: {ranking.reason}", baseline, (), (), best_name)
-    if not baseline.misfits:
-        proposed = (f"; the design's fit preferred {best.label} (p = {best.probability:.2f}), which would only "
-                    "explain noise" if ranking.verdict not in (NO_EFFECT, NONE_OF_THEM) and best else "")
-        return Verdict(NO_EFFECT, f"no effect: {baseline.words()}{proposed}", baseline, (), (), best_name)
+    done: list[Confirmation] = []
+    baseline_words = baseline.words()
+    proposed = (f"; the design's fit preferred {best.label} (p = {best.probability:.2f}), which would only "
+                "explain noise" if ranking.verdict not in (NO_EFFECT, NONE_OF_THEM) and best else "")
+    if refit is not None and refit.stands:
+        return Verdict(NO_EFFECT, f"no effect: the model without an effect, refitted, fits within the noise through "
+                       f"the design's emulator{proposed}; at the target, {refit.words()}", baseline, (refit,), (),
+                       best_name)
+    if refit is not None:
+        done.append(refit)
+        baseline_words = ("the model without an effect, refitted, fit within the noise through the design's emulator, "
+                          f"but at the target {refit.words()}, so it does not reach the experiment there; "
+                          f"with that simulation in the design, {baseline_words}")
+    elif not baseline.misfits:
+        return Verdict(NO_EFFECT, f"no effect: {baseline_words}{proposed}", baseline, (), (), best_name)
     tried = candidates_to_confirm(ranking)
     if not tried:
-        return Verdict(NONE_OF_THEM, f"none of the candidates: {baseline.words()}, and no candidate's Bayes factor "
-                       f"against no effect reaches {MIN_BAYES_FACTOR:g} ({ranking.reason})", baseline, (), (), best_name)
-    done: list[Confirmation] = []
+        return Verdict(NONE_OF_THEM, f"none of the candidates: {baseline_words}, and no candidate's Bayes factor "
+                       f"against no effect reaches {MIN_BAYES_FACTOR:g} ({ranking.reason})", baseline, tuple(done), (),
+                       best_name)
     for model in tried:
         result = confirm(model.name)
         done.append(result)
@@ -453,11 +478,12 @@ def decide(ranking: Ranking, baseline: BaselineFit | BaselineTest | None, confir
                 left += (f"the held-out features (RMS z {result.gap_after:.2f} after, beyond the noise's "
                          f"{result.limit:.2f})",)
             how = "confirmed" if result.confirmed else "unconfirmed: the held-out features cannot see it"
-            words = (f"{model.label} explains the gap (p = {model.probability:.2f}, {how}): {baseline.words()}; "
+            words = (f"{model.label} explains the gap (p = {model.probability:.2f}, {how}): {baseline_words}; "
                      f"{result.words()}"
                      + (f"; it leaves {', '.join(left)}: an effect outside the candidates acts beside it" if left else ""))
-            if len(done) > 1:
-                words += "; before it, " + "; ".join(c.words() for c in done[:-1])
+            before_it = [c for c in done[:-1] if c.effect != NO_EFFECT]
+            if before_it:
+                words += "; before it, " + "; ".join(c.words() for c in before_it)
             return Verdict(model.name, words, baseline, tuple(done), left, best_name)
-    return Verdict(NONE_OF_THEM, f"none of the candidates: {baseline.words()}, and no candidate fixes it: "
-                   + "; ".join(c.words() for c in done), baseline, tuple(done), (), best_name)
+    return Verdict(NONE_OF_THEM, f"none of the candidates: {baseline_words}, and no candidate fixes it: "
+                   + "; ".join(c.words() for c in done if c.effect != NO_EFFECT), baseline, tuple(done), (), best_name)
