@@ -260,3 +260,59 @@ def test_a_misfitting_emulator_is_told_from_seed_noise_by_the_pure_error() -> No
     assert emulator.noise_sd[0] == pytest.approx(emulator.pure_sd[0]) and emulator.noise_sd[0] < 2.0
     assert np.array_equal(emulator.noise_sd[1:], emulator.sd[1:])
     assert emulator.discrepancy_sd[0] > 5.0 and not emulator.discrepancy_sd[1:].any()
+
+
+#: the target's world where its shapes differ from the cheap level's (at `converged` a rough wall
+#: raises the bulk density, at `tiny` it lowers it): the density-like feature f4 falls with the
+#: second calibrated parameter at the target (it rises at the cheap level), and the wall's
+#: signature there raises it
+TARGET_SLOPES = SLOPES * np.array([[1.0], [1.0], [1.0], [1.0], [-3.0], [1.0]])
+TARGET_WALL = np.array([5.0, 5.0, 2.5, 0.0, 8.0, -3.0])
+
+
+def _target_world(unit: np.ndarray, wall: np.ndarray) -> np.ndarray:
+    return BASE - 4.0 + unit @ TARGET_SLOPES.T + np.outer(wall * (1.2 - 0.2 * wall), TARGET_WALL)
+
+
+def test_the_target_spans_a_direction_only_where_its_simulations_spread() -> None:
+    from calibrax.diagnosis.scoring import spanned_directions
+
+    assert spanned_directions(np.zeros((3, 2))).shape == (0, 2)
+    (v,) = spanned_directions(np.array([[0.0, 0.0], [0.0, 0.0], [0.3, 0.6], [0.3, 0.6]]))
+    assert abs(abs(v @ np.array([0.3, 0.6]) / np.hypot(0.3, 0.6)) - 1.0) < 1e-9
+
+
+def test_the_target_reads_its_own_slope_and_an_effects_own_signature_from_its_simulations() -> None:
+    """A design at the cheap level; at the target 3 replicates at the calibrated point, a refit of
+    the model without an effect (2 seeds at another calibrated point: refuted there, it joins the
+    design) and the wall's point (1 seed at half its range). The target's density falls with the
+    calibrated parameter where the cheap level's rises, and the wall raises it where the cheap
+    level's lowers it: one scale λ cannot carry that. The emulator gives the target its own slope
+    along the refit's direction and reads the wall's signature per feature from its point, so the
+    wall behind the experiment is named with its size inside the interval."""
+    rng = np.random.default_rng(7)
+    cheap = synthetic_design(rng)
+    n_cheap = len(cheap.unit)
+    refit = np.array([0.0, 0.6])
+    unit_t = np.array([[0.0, 0.0]] * 3 + [refit] * 2 + [[0.0, 0.0]])
+    wall_t = np.array([0.0] * 5 + [0.5])
+    eff_t = np.zeros((6, 3))
+    eff_t[:, EFFECTS.index("wall")] = wall_t
+    y_t = _target_world(unit_t, wall_t) + rng.normal(0, 1, (6, F))
+    groups = np.r_[np.zeros(4, int), np.arange(1, n_cheap - 3), [n_cheap] * 3, [n_cheap + 1] * 2, [n_cheap + 2]]
+    design = Design(np.vstack([cheap.unit, unit_t]), np.vstack([cheap.effects, eff_t]), cheap.effect_columns,
+                    np.vstack([cheap.features, y_t]), cheap.names, np.r_[np.zeros(n_cheap, bool), np.ones(6, bool)],
+                    groups)
+    emulator = Emulator.fit(design)
+    assert emulator.target_directions.shape == (1, 2)
+    assert emulator.own_signature[EFFECTS.index("wall")] and not emulator.own_signature[EFFECTS.index("psd")]
+    # the target's own slope of f4 along the refit, not the cheap level's
+    mu, _ = emulator.predict(np.array([[0.0, 0.0], refit]), np.zeros((2, 3)))
+    assert (mu[1, 4] - mu[0, 4]) < -0.5 * 3.0 * 0.6, mu[:, 4]
+    truth = 0.6
+    reps = _target_world(np.zeros((3, 2)), np.full(3, truth)) + rng.normal(0, 1, (3, F))
+    measured = Target(reps.mean(axis=0), reps.std(axis=0, ddof=1), 3)
+    ranking = rank(measured, design, CANDIDATES, emulator=emulator)
+    assert ranking.verdict == "wall", ranking.reason
+    lo, hi = ranking.model("wall").effect_interval["wall"]
+    assert lo < truth < hi, (lo, hi)

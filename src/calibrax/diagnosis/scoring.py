@@ -128,6 +128,12 @@ class Design:
         return Design(self.unit, self.effects, self.effect_columns, self.features[:, keep],
                       tuple(self.names[j] for j in keep), self.at_target, self.groups)
 
+    def rows(self, keep: np.ndarray) -> "Design":
+        """The simulations where ``keep`` (shape (N,) of bool) holds."""
+        return Design(self.unit[keep], self.effects[keep], self.effect_columns, self.features[keep], self.names,
+                      self.at_target[keep] if self.at_target is not None else None,
+                      self.groups[keep] if self.groups is not None else None)
+
     @property
     def two_levels(self) -> bool:
         """Whether the design holds simulations at both a cheap fidelity and the target."""
@@ -168,6 +174,13 @@ class Emulator:
     #: per feature, shape (F,): the lack-of-fit F test's p-value, residual against pure error (NaN:
     #: not testable)
     lack_of_fit_p: np.ndarray | None = None
+    #: directions in the calibrated parameters (rows, unit vectors, shape (m, d)) along which the
+    #: target's own simulations spread: along them each feature at the target has a slope of its
+    #: own beside the cheap level's (m = 0: the target is the cheap level plus its shift)
+    target_directions: np.ndarray | None = None
+    #: per effect column, shape (K,) of bool: whose signature at the target is read per feature from
+    #: its point there, the cheap level's shape scaled by λ having failed to predict that point
+    own_signature: np.ndarray | None = None
 
     @classmethod
     def fit(cls, design: Design) -> "Emulator":
@@ -187,28 +200,35 @@ class Emulator:
         friction of 0.3 moves peak τ/σ as one of 0.04 does at `tiny` (its shear zone is a thin
         band, not the whole bed), and a constant shift cannot carry that. The signatures' shape
         across the features and the response to the calibrated parameters come from the cheap
-        level; :meth:`predict` answers at the target.
+        level, except where the target's own simulations say otherwise: along the directions in
+        which they spread (a refit confirmed there, :func:`spanned_directions`) each feature at
+        the target gets a slope of its own, and an effect whose point at the target the scaled
+        cheap signature fails to predict (:func:`_level_scales`) is read per feature from that
+        point. :meth:`predict` answers at the target.
 
         The residual s.d. holds seed noise and the basis's lack of fit; the seeds of one design
         point (the replicates) give the pure error alone, and an F test of the one against the
         other (``lack_of_fit_p``) says where the emulator misfits (:attr:`noise_sd`)."""
         shifted = design.two_levels
         level = design.at_target.astype(float) if shifted else None
-        n = design.features.shape[0]
+        n, k = design.features.shape[0], design.effects.shape[1]
         scalable = (np.flatnonzero(np.any((design.effects != 0) & design.at_target[:, None], axis=0))
                     if shifted else np.array([], dtype=int))
-        p_linear = basis(design.unit, design.effects, shift=level).shape[1]
+        directions = spanned_directions(design.unit[design.at_target]) if shifted else np.zeros((0, design.unit.shape[1]))
+        own = np.zeros(k, dtype=bool)
+        p_linear = basis(design.unit, design.effects, shift=level).shape[1] + directions.shape[0]
         if n <= p_linear + 1 + scalable.size:
             raise ValueError(f"the design has {n} simulations; its emulator needs more than {p_linear + 1 + scalable.size}")
-        scale = np.ones(design.effects.shape[1])
+        scale = np.ones(k)
         if scalable.size:
-            scale = _level_scales(design, level, scalable)
+            scale, own = _level_scales(design, scalable)
         effects = _at_level(design.effects, design.at_target if shifted else None, scale)
-        phi, quadratic = _chosen_basis(design.unit, effects, design.features, level)
+        extra = _target_terms(design.unit, design.effects, level, directions, own) if shifted else None
+        phi, quadratic = _chosen_basis(design.unit, effects, design.features, level, extra)
         gram_inv = np.linalg.pinv(phi.T @ phi)
         coef = gram_inv @ phi.T @ design.features
         resid = design.features - phi @ coef
-        dof = n - np.linalg.matrix_rank(phi) - scalable.size
+        dof = n - np.linalg.matrix_rank(phi) - int(np.sum(~own[scalable]))
         sd = np.sqrt(np.sum(resid ** 2, axis=0) / max(dof, 1))
         sd = np.where(sd > 0, sd, np.max(np.abs(design.features), axis=0) * 1e-6 + 1e-12)
         raw = np.corrcoef(resid.T) if resid.shape[1] > 1 else np.ones((1, 1))
@@ -218,7 +238,8 @@ class Emulator:
         pure_sd, pure_dof = pure_error(design.features, design.groups)
         lof = _lack_of_fit(np.sum(resid ** 2, axis=0), int(dof), pure_sd, pure_dof)
         return cls(coef, gram_inv, sd, corr, int(dof), design.unit.shape[1], design.effect_columns, quadratic, shifted,
-                   scale if scalable.size else None, pure_sd, pure_dof, lof)
+                   scale if scalable.size else None, pure_sd, pure_dof, lof, directions if shifted else None,
+                   own if shifted else None)
 
     @property
     def misfit(self) -> np.ndarray:
@@ -256,16 +277,23 @@ class Emulator:
         """Mean features at the target fidelity, shape (n, F), and the emulator's relative
         variance h, shape (n,)."""
         unit = np.atleast_2d(unit)
-        effects = np.atleast_2d(effects)
-        if self.level_scale is not None:
-            effects = effects * self.level_scale[None, :]
-        phi = basis(unit, effects, self.quadratic, shift=np.ones(unit.shape[0]) if self.shifted else None)
+        raw = np.atleast_2d(effects)
+        effects = raw * self.level_scale[None, :] if self.level_scale is not None else raw
+        at_target = np.ones(unit.shape[0]) if self.shifted else None
+        extra = (_target_terms(unit, raw, at_target, self.target_directions, self.own_signature)
+                 if self.shifted else None)
+        phi = basis(unit, effects, self.quadratic, shift=at_target, extra=extra)
         h = np.einsum("ij,jk,ik->i", phi, self.gram_inv, phi)
         return phi @ self.coef, np.maximum(h, 0.0)
 
 
 #: the lack-of-fit F test's p-value below which the emulator misfits a feature
 LACK_OF_FIT_P = 0.01
+#: singular value (u on [−1, 1]) beyond which the target's simulations spread along a direction
+SPAN_TOLERANCE = 1e-6
+#: the χ² test's p-value below which the cheap level's signature scaled by λ fails to predict an
+#: effect's point at the target, whose signature is then read per feature there
+LEVEL_SHAPE_P = 0.01
 #: the range of the effect-by-level factor λ (:meth:`Emulator.fit`), and the grid it is searched on
 LEVEL_SCALE_RANGE = (0.01, 10.0)
 LEVEL_SCALE_GRID = 61
@@ -308,58 +336,70 @@ def _at_level(effects: np.ndarray, at_target: np.ndarray | None, scale: np.ndarr
     return np.where(at_target[:, None], effects * scale[None, :], effects)
 
 
-def _chosen_basis(unit: np.ndarray, effects: np.ndarray, y: np.ndarray,
-                  level: np.ndarray | None) -> tuple[np.ndarray, bool]:
+def _chosen_basis(unit: np.ndarray, effects: np.ndarray, y: np.ndarray, level: np.ndarray | None,
+                  extra: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
     """The linear basis, or the quadratic one where PRESS prefers it (see :meth:`Emulator.fit`)."""
-    linear = basis(unit, effects, shift=level)
-    curved = basis(unit, effects, quadratic=True, shift=level)
+    linear = basis(unit, effects, shift=level, extra=extra)
+    curved = basis(unit, effects, quadratic=True, shift=level, extra=extra)
     if y.shape[0] - curved.shape[1] >= MIN_QUADRATIC_DOF and _press(curved, y) < _press(linear, y):
         return curved, True
     return linear, False
 
 
-def _level_scales(design: Design, level: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """The effect-by-level factors λ (see :meth:`Emulator.fit`), shape (K,): the emulator fitted
-    without the target's simulations that have an effect on predicts them, at the target, with
-    each of ``columns`` times λ; λ minimises that prediction's squared error over the features in
-    units of the emulator's residual s.d., searched on a log grid from
-    ``LEVEL_SCALE_RANGE[0]`` to where the target's largest magnitude reaches the cheap design's
-    (λg = 1: no further, the cheap level's response is not known beyond it), then polished, twice
-    round where there are several. Fitted with those simulations in, λ would instead make them
-    points of high leverage that the effect's terms pass through (measured on the double: λ = 7
-    where the truth is 1)."""
+def _level_scales(design: Design, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The effect-by-level factors λ (see :meth:`Emulator.fit`), shape (K,), and which effect
+    columns' signatures are read per feature at the target instead, shape (K,) of bool.
+
+    The emulator fitted without the target's simulations that have an effect on predicts them, at
+    the target, with each of ``columns`` times λ; λ minimises that prediction's squared error over
+    the features in units of its s.d. (the seed noise, pure error where that emulator misfits, with
+    its own variance and misfit), searched on a log grid from ``LEVEL_SCALE_RANGE[0]`` to where the
+    target's largest magnitude reaches the cheap design's (λg = 1: no further, the cheap level's
+    response is not known beyond it), then polished, twice round where there are several. Fitted
+    with those simulations in, λ would instead make them points of high leverage that the effect's
+    terms pass through (measured on the double: λ = 7 where the truth is 1).
+
+    Where even the best λ leaves an effect's points beyond their noise (χ² on F·n − 1 degrees of
+    freedom below ``LEVEL_SHAPE_P``), the cheap level's signature has another shape at the target,
+    not only another size (at `converged` a rough wall raises the bulk density, at `tiny` it
+    lowers it): that column's λ is 0 and its signature at the target is read per feature from its
+    points there (:func:`_target_terms`), known as well as those few simulations know it."""
     from scipy.optimize import minimize_scalar
+    from scipy.stats import chi2
 
     probe = design.at_target & np.any(design.effects[:, columns] != 0, axis=1)
-    known = ~probe
-    phi, quadratic = _chosen_basis(design.unit[known], design.effects[known], design.features[known], level[known])
-    coef = np.linalg.lstsq(phi, design.features[known], rcond=None)[0]
-    resid = design.features[known] - phi @ coef
-    sd = np.sqrt(np.sum(resid ** 2, axis=0) / max(int(known.sum()) - phi.shape[1], 1))
-    sd = np.where(sd > 0, sd, 1.0)
-    unit, y = design.unit[probe], design.features[probe]
+    known = Emulator.fit(design.rows(~probe))
+    noise2 = known.noise_sd ** 2
+    misfit2 = known.discrepancy_sd ** 2
+    unit, y, g = design.unit[probe], design.features[probe], design.effects[probe]
 
-    def cost(scale: np.ndarray) -> float:
-        effects = design.effects[probe] * scale[None, :]
-        mu = basis(unit, effects, quadratic, shift=np.ones(unit.shape[0])) @ coef
-        return float(np.sum(((y - mu) / sd) ** 2))
+    def terms(scale: np.ndarray) -> np.ndarray:
+        mu, h = known.predict(unit, g * scale[None, :])
+        return (y - mu) ** 2 / (noise2[None, :] * (1.0 + h[:, None]) + misfit2[None, :])
 
     scale = np.ones(design.effects.shape[1])
     for _ in range(2 if columns.size > 1 else 1):
         for j in columns:
-            reach = 1.0 / float(np.max(np.abs(design.effects[probe, j])))
+            reach = 1.0 / float(np.max(np.abs(g[:, j])))
             grid = np.log(np.geomspace(LEVEL_SCALE_RANGE[0], min(LEVEL_SCALE_RANGE[1], reach), LEVEL_SCALE_GRID))
             step = grid[1] - grid[0]
 
             def along(log_l: float, j: int = j) -> float:
                 trial = scale.copy()
                 trial[j] = math.exp(log_l)
-                return cost(trial)
-            best = grid[int(np.argmin([along(g) for g in grid]))]
+                return float(np.sum(terms(trial)))
+            best = grid[int(np.argmin([along(v) for v in grid]))]
             lo, hi = max(best - step, grid[0]), min(best + step, grid[-1])
             res = minimize_scalar(along, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
             scale[j] = math.exp(res.x if res.fun <= along(best) else best)
-    return scale
+    own = np.zeros(design.effects.shape[1], dtype=bool)
+    z2 = terms(scale)
+    for j in columns:
+        rows = g[:, j] != 0
+        dof = int(rows.sum()) * y.shape[1] - 1
+        own[j] = dof >= 1 and float(chi2.sf(np.sum(z2[rows]), dof)) < LEVEL_SHAPE_P
+    scale[own] = 0.0
+    return scale, own
 
 
 def _press(phi: np.ndarray, y: np.ndarray) -> float:
@@ -374,10 +414,11 @@ def _press(phi: np.ndarray, y: np.ndarray) -> float:
 
 
 def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False,
-          shift: np.ndarray | None = None) -> np.ndarray:
+          shift: np.ndarray | None = None, extra: np.ndarray | None = None) -> np.ndarray:
     """The regressors [1, u, g, g²], shape (n, 1 + d + 2K), with ``quadratic`` the squares and
-    products of u too, and with ``shift`` (shape (n,): 1 at the target fidelity, 0 at the cheap
-    one) the target's shift last."""
+    products of u too, with ``shift`` (shape (n,): 1 at the target fidelity, 0 at the cheap one)
+    the target's shift, and the target's own terms ``extra`` (shape (n, m), :func:`_target_terms`)
+    last."""
     unit = np.atleast_2d(unit)
     effects = np.atleast_2d(effects)
     cols = [np.ones((unit.shape[0], 1)), unit, effects, effects ** 2]
@@ -386,7 +427,35 @@ def basis(unit: np.ndarray, effects: np.ndarray, quadratic: bool = False,
         cols.append(np.column_stack([unit[:, i] * unit[:, j] for i in range(d) for j in range(i, d)]))
     if shift is not None:
         cols.append(np.asarray(shift, dtype=float).reshape(-1, 1))
+    if extra is not None and extra.shape[1]:
+        cols.append(extra)
     return np.hstack(cols)
+
+
+def spanned_directions(target_unit: np.ndarray) -> np.ndarray:
+    """The directions in the calibrated parameters along which the target's simulations spread
+    about their mean, rows of unit length, shape (m, d), m ≤ min(n − 1, d): where the target has
+    simulations at more than one calibrated point (a refit confirmed there), each feature there gets
+    a slope of its own along them, the AR(1) model's bias δ(x) linear where the data can tell
+    (Kennedy and O'Hagan 2000); the slope of the rest is the cheap level's."""
+    u = np.atleast_2d(np.asarray(target_unit, dtype=float))
+    if u.shape[0] < 2:
+        return np.zeros((0, u.shape[1]))
+    _, sv, vt = np.linalg.svd(u - u.mean(axis=0), full_matrices=False)
+    return vt[sv > SPAN_TOLERANCE]
+
+
+def _target_terms(unit: np.ndarray, effects: np.ndarray, at_target: np.ndarray | None, directions: np.ndarray | None,
+                  own: np.ndarray | None) -> np.ndarray:
+    """The target's own regressors, zero at the cheap level, shape (n, m + k): u along each of
+    ``directions`` (shape (m, d)), and each effect column of ``own`` (shape (K,) of bool, k of them
+    true) as its fraction of the range, raw (its signature at the target read per feature)."""
+    unit = np.atleast_2d(unit)
+    n = unit.shape[0]
+    level = np.ones(n) if at_target is None else np.asarray(at_target, dtype=float)
+    along = unit @ directions.T if directions is not None and directions.size else np.zeros((n, 0))
+    mine = np.atleast_2d(effects)[:, own] if own is not None and own.any() else np.zeros((n, 0))
+    return np.hstack([along, mine]) * level[:, None]
 
 
 @dataclass(frozen=True)
