@@ -74,6 +74,7 @@ def test_a_two_fidelity_diagnosis_names_the_hidden_effect_at_the_target_and_resu
     assert by["tiny"]["simulations"] == data["simulations"]["design"] - TARGET_RUNS - 1
     # the double's size distribution acts alike at both levels; one seed at quick reads its scale
     assert 0.2 < data["level_scale"]["sigma_log"] < 2.0, data["level_scale"]
+    assert data["own_signature"] == [], "the double's signature has one shape at both levels: λ carries it"
     assert "By fidelity: tiny " in (out / "diagnosis.md").read_text()
     assert "across fidelities: the design at tiny" in run.stderr
     # the first point, the calibrated one, at quick; the rest at tiny (the effects change the

@@ -83,3 +83,11 @@ def test_the_ft4_3kpa_example_gives_its_five_steps_as_the_locus():
     locus = [n for n in candidate_names(replicates) if group_of(n) == "locus"]
     assert locus == ["peak_ratio_2kPa", "peak_ratio_1.75kPa", "peak_ratio_1.5kPa", "peak_ratio_1.25kPa", "peak_ratio_1kPa"]
     assert all(0.6 < r["peak_ratio_2kPa"] < 0.8 and 0.6 < r["preshear_ratio"] < 0.75 for r in replicates)
+
+
+def test_the_report_says_which_signature_the_target_reads_for_itself():
+    from calibrax.diagnosis.run import level_words
+
+    words = level_words({"sigma_log": 0.8}, ["wall_friction"])
+    assert "sigma_log acts as 0.8 × itself" in words and "wall_friction's signature differs" in words
+    assert level_words({}, []) == ""

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrax.diagnosis.gap import FeatureGap
-from calibrax.diagnosis.run import Calibrated, Diagnosis
+from calibrax.diagnosis.run import Calibrated, Diagnosis, level_words
 from calibrax.diagnosis.scoring import IMPLAUSIBLE_Z, MIN_BAYES_FACTOR, NO_EFFECT, NONE_OF_THEM
 
 CAPTIONS = {
@@ -117,9 +117,9 @@ def _emulator_findings(d: Diagnosis) -> list[str]:
         out += ["", f"**The design's emulator misfits** {rows}: its response there is beyond a quadratic, so those "
                 "features' gaps are judged by the replicates' scatter and the misfit counts as the emulator's own "
                 "error in the scores. A design box closer to the answer, or more points, reads them better."]
-    if d.level_scale:
-        out += ["", "**At the target**, measured by one simulation each: " + "; ".join(
-            f"{k} acts as {v:.3g} × itself at the cheap level" for k, v in d.level_scale.items()) + "."]
+    if d.level_scale or d.own_signature:
+        out += ["", "**At the target**, measured by one simulation each: "
+                + level_words(d.level_scale, d.own_signature) + "."]
     return out
 
 

@@ -159,6 +159,9 @@ class Diagnosis:
     #: per effect parameter, its signature's scale at the target against the cheap level
     #: (a diagnosis across fidelities whose candidates had a point at the target)
     level_scale: dict[str, float] = field(default_factory=dict)
+    #: the effect parameters whose signature at the target is read per feature from their point
+    #: there, the cheap level's scaled by λ having failed to predict it
+    own_signature: list[str] = field(default_factory=list)
 
     @property
     def verdict(self) -> str:
@@ -224,7 +227,7 @@ class Diagnosis:
                 "shrinkage": self.shrinkage, "simulations": self.simulations, "wall_time": self.wall_time,
                 "box": {k: list(v) for k, v in self.box.items()}, "centre": self.centre, "stores": self.stores,
                 "metric_gap": self.metric_gap, "seed_sd": self.seed_sd, "lack_of_fit": self.lack_of_fit,
-                "level_scale": self.level_scale}
+                "level_scale": self.level_scale, "own_signature": self.own_signature}
 
 
 def candidate_spaces(effects: list[Effect], experiment: Experiment) -> list[CandidateSpace]:
@@ -438,7 +441,8 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
                        scored.ranking, final, sims, time.monotonic() - started,
                        {n: (float(box.low[i]), float(box.high[i])) for i, n in enumerate(box.space.names)},
                        dict(calibrated.centre), stores, dict(calibrated.metric_gap), dict(scored.seed_sd),
-                       lack_of_fit(scored.emulator, names), _level_scale(scored.emulator))
+                       lack_of_fit(scored.emulator, names), _level_scale(scored.emulator),
+                       _own_signature(scored.emulator))
     write_json(out / "diagnosis.json", result.to_dict())
     return result
 
@@ -475,10 +479,9 @@ def _levelled(scored: "_Scored", scored_on: Callable[[Box, list[DesignPoint], li
         points = points + [point]
         levelled.add(top.name)
         scored = scored_on(box, points, outcomes)
-        scales = _level_scale(scored.emulator)
-        if scales:
-            log.info("diagnose: at the target, %s", ", ".join(
-                f"{c} acts as {s:.3g} × itself at the cheap level" for c, s in scales.items()))
+        found = level_words(_level_scale(scored.emulator), _own_signature(scored.emulator))
+        if found:
+            log.info("diagnose: at the target, %s", found)
     return scored, points, outcomes
 
 
@@ -569,10 +572,25 @@ def score_design(experiment: list[dict[str, float]], spaces: list[CandidateSpace
 
 
 def _level_scale(emulator: Emulator) -> dict[str, float]:
-    """{effect parameter: λ} of the columns a target simulation measured (empty: none)."""
+    """{effect parameter: λ} of the columns a target simulation measured and λ carries (empty: none)."""
     if emulator.level_scale is None:
         return {}
-    return {c: float(s) for c, s in zip(emulator.effect_columns, emulator.level_scale) if s != 1.0}
+    own = _own_signature(emulator)
+    return {c: float(s) for c, s in zip(emulator.effect_columns, emulator.level_scale) if s != 1.0 and c not in own}
+
+
+def _own_signature(emulator: Emulator) -> list[str]:
+    """The effect parameters whose signature at the target is read per feature from their point there."""
+    if emulator.own_signature is None:
+        return []
+    return [c for c, own in zip(emulator.effect_columns, emulator.own_signature) if own]
+
+
+def level_words(scales: dict[str, float], own: list[str]) -> str:
+    """What the points at the target showed of the effects' signatures there, in words ("": nothing)."""
+    return "; ".join([f"{c} acts as {s:.3g} × itself at the cheap level" for c, s in scales.items()]
+                     + [f"{c}'s signature differs from the cheap level's in shape, not only in size, so it is read "
+                        "per feature from its point there" for c in own])
 
 
 def lack_of_fit(emulator: Emulator, names: tuple[str, ...]) -> dict[str, dict[str, float]]:
