@@ -27,6 +27,7 @@ starts a store of its own beside the old; the outcome is written to ``out/diagno
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -49,7 +50,7 @@ from calibrax.diagnosis.design import (SEED_BASE, Box, Budget, DesignPoint, desi
 from calibrax.diagnosis.effects import Effect, EffectParameter
 from calibrax.diagnosis.scoring import (NO_EFFECT, CandidateSpace, Design, Emulator, Ranking, Target, rank,
                                         score_model)
-from calibrax.diagnosis.verdict import (MAX_TRIED, Confirmation, Verdict, baseline_test, decide,
+from calibrax.diagnosis.verdict import (MAX_TRIED, NOT_SHRUNK, UNSEEN, Confirmation, Verdict, baseline_test, decide,
                                         judge_confirmation)
 from calibrax.errors import CalibraxError, ConfigError, DiagnosisError
 
@@ -667,6 +668,10 @@ def refit_at_target(scored: _Scored, box: Box, fit_on: tuple[str, ...], budget: 
     outcome = simulate(point, None)
     judge = tuple(n for n in scored.design.names if gaps.group_of(n) not in fit_on)
     confirmation = _judged(scored, box, None, recal, point, _features(outcome, peak_window), judge, seed)
+    if confirmation.outcome == UNSEEN:
+        # a candidate the held-out features cannot see is not refuted by them; the refit's claim is
+        # that it closes the gap they show, and a gap left beyond the noise, unshrunk, refutes that
+        confirmation = dataclasses.replace(confirmation, outcome=NOT_SHRUNK)
     log.info("diagnose: at the target, %s", confirmation.words())
     return confirmation, point, outcome
 
