@@ -8,7 +8,9 @@ fidelities").
         --experiment examples/data/pseudo-numba-converged-wall03.yaml -o runs/dfc
 
 (the second reads the bundled experiment made at ``converged`` with a wall friction of 0.3, three
-replicates, 2.1 CPU-hours; without ``--experiment`` it makes its own into the output folder)
+replicates, 2.1 CPU-hours; without ``--experiment`` it makes its own into the output folder; with
+``--stores benchmarks/data/dfc-converged-wall03`` it resumes the converged simulations a run
+before kept there instead of repeating them)
 
 It starts from a known calibrated point (the truth's E and μs, a plausible region around it, as
 tests/integration/test_diagnose_numba_dem.py does at one fidelity), so what it measures is the
@@ -39,10 +41,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--experiment", type=Path, default=None,
                         help="a pseudo-experiment made at the target with the hidden wall friction (its YAML), "
                              "instead of making one into the output folder (at converged: 2.1 CPU-hours)")
+    parser.add_argument("--stores", type=Path, default=None,
+                        help="a folder of an earlier run's diagnosis stores (*.h5, e.g. "
+                             "benchmarks/data/dfc-converged-wall03): each is copied into the output's diagnosis "
+                             "folder where that has none of its name, so the run resumes them")
     parser.add_argument("-o", "--output", type=Path, required=True)
     args = parser.parse_args(argv)
     if args.experiment is not None and not args.experiment.is_file():
         parser.error(f"--experiment {args.experiment}: no such file (a pseudo-experiment's YAML)")
+    if args.stores is not None and not sorted(args.stores.glob("*.h5")):
+        parser.error(f"--stores {args.stores}: no diagnosis stores (*.h5) there")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
 
     from calibrax import ShearCellSpec
@@ -72,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     # level, TARGET_RUNS replicates and confirmations at the target
     budget = Budget(replicates=3, baseline=3, per_effect=5, confirm=TARGET_RUNS, target_replicates=TARGET_RUNS,
                     level_points=LEVEL_POINTS)
+    if args.stores is not None:
+        seed_stores(args.stores, out / "walled.diagnosis")
     d = diagnose(calibrated, effects_by_name(), out / "walled.diagnosis", LocalExecutor(args.workers), budget=budget)
     interval = d.recalibrated.get("effect_interval", {}).get("wall_friction")
     ranked = d.ranking.models[0]
@@ -86,6 +96,18 @@ def main(argv: list[str] | None = None) -> int:
               f"({row['engine_seconds'] / 3600:.2f} h of engine wall time)")
     print(json.dumps(d.simulations))
     return 0
+
+
+def seed_stores(source: Path, folder: Path) -> None:
+    """Copy each store of ``source`` into ``folder`` where it has none of that name (a store there
+    is the newer: it may hold more)."""
+    import shutil
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for store in sorted(source.glob("*.h5")):
+        if not (folder / store.name).exists():
+            shutil.copy2(store, folder / store.name)
+            logging.info("diagnose_fidelities: resuming %s from %s", store.name, source)
 
 
 if __name__ == "__main__":

@@ -12,8 +12,8 @@ import pytest
 
 from calibrax.diagnosis import gap as gaps
 from calibrax.diagnosis.scoring import NO_EFFECT, NONE_OF_THEM, ModelScore, Ranking
-from calibrax.diagnosis.verdict import (CONFIRMED, NOT_SHRUNK, WORSE, BaselineFit, Confirmation, decide,
-                                        judge_confirmation)
+from calibrax.diagnosis.verdict import (CONFIRMED, NOT_SHRUNK, OUT_OF_REACH, WORSE, BaselineFit, Confirmation,
+                                        decide, judge_confirmation)
 
 HELD = ("density_a", "density_b", "density_c")
 
@@ -119,12 +119,18 @@ def test_across_fidelities_no_effect_is_answered_with_its_refit_confirmed_at_the
     assert "at the target" in v.reason and "brought into the noise" in v.reason
 
 
-@pytest.mark.parametrize("baseline", [FITS, MISFITS], ids=["fits-without-it", "misfits-with-it"])
-def test_a_refit_the_target_refutes_sends_the_diagnosis_on_to_the_candidates(baseline):
+OUT_OF_REACH_REFIT = Confirmation(NO_EFFECT, "the calibrated parameters alone", OUT_OF_REACH, 1.94, 1.93, 1.35,
+                                  math.nan, math.nan)
+
+
+@pytest.mark.parametrize("baseline, refuted", [(FITS, "worse"), (MISFITS, "worse"), (FITS, "out of reach")],
+                         ids=["fits-without-it", "misfits-with-it", "out-of-reach"])
+def test_a_refit_the_target_refutes_sends_the_diagnosis_on_to_the_candidates(baseline, refuted):
     """With the refuted refit's simulations in the design, the baseline may misfit or still fit:
-    either way the target has refuted it, and the candidates are tried."""
-    refuted = _judge(3.0, 5.0, NO_EFFECT)
-    assert refuted.outcome == WORSE
+    either way the target has refuted it, and the candidates are tried. A refit the emulator
+    predicts cannot close the gap the target measured is refuted without a simulation."""
+    refuted = _judge(3.0, 5.0, NO_EFFECT) if refuted == "worse" else OUT_OF_REACH_REFIT
+    assert refuted.outcome in (WORSE, OUT_OF_REACH) and not refuted.stands
     tried: list[str] = []
 
     def confirm_double(effect: str) -> Confirmation:
@@ -135,6 +141,7 @@ def test_a_refit_the_target_refutes_sends_the_diagnosis_on_to_the_candidates(bas
     assert v.name == "cohesion" and tried == ["cohesion"]
     assert v.confirmations[0] is refuted and v.adopted is v.confirmations[1]
     assert "does not reach the experiment there" in v.reason
+    assert ("refuted without a simulation" in v.reason) == (refuted.outcome == OUT_OF_REACH)
     # where no candidate is worth trying, "none of the candidates", not "no effect"
     weak = Ranking([_model(NO_EFFECT, 0.0, 0.6), _model("cohesion", -0.5, 0.4)], NO_EFFECT, "no effect")
     v = decide(weak, baseline, lambda effect: pytest.fail("below the Bayes factor"), refit=refuted)

@@ -89,6 +89,9 @@ TOWARD_Z = 1.645
 VISIBLE_Z = 2.0
 
 CONFIRMED, WORSE, NOT_SHRUNK, UNSEEN = "confirmed", "worse", "not shrunk", "unseen"
+#: a refit of the model without an effect that, by the design emulator's own prediction, cannot
+#: close the gap the target measured: refuted without a simulation
+OUT_OF_REACH = "out of reach"
 #: unseen by the held-out features where the fit features show no gap: it explains nothing there is
 UNSEEN_NO_GAP = "unseen, no gap on the fit features"
 
@@ -235,6 +238,12 @@ class Confirmation:
                   f"{self.null_low:.2f} to {self.null_high:.2f})")
         move = f"a move toward the experiment of {self.toward:.1f} s.d. of the comparison's noise" + (
             f" ({self.as_predicted:.1f} along the design's prediction)" if math.isfinite(self.as_predicted) else "")
+        if self.outcome == OUT_OF_REACH:
+            return (f"recalibrated with {self.label}, the design's emulator moves the features so little from the "
+                    f"target's calibrated point that, from what the target measured there, the gap over every "
+                    f"feature stays at RMS z {self.gap_after:.2f} ({self.gap_before:.2f} before; seed noise alone "
+                    f"stays below {self.limit:.2f}): the refit cannot reach the experiment at the target, so it is "
+                    "refuted without a simulation")
         if self.outcome == WORSE:
             return f"recalibrated with {self.label}, {change}: worse beyond the noise, so its own confirmation refutes it"
         if self.outcome == UNSEEN_NO_GAP:
