@@ -370,7 +370,7 @@ def diagnose(calibrated: Calibrated, effects: list[Effect], out: Path, executor:
         def scored_on(box: Box, points: list[DesignPoint], outcomes: list[Any]) -> _Scored:
             points = points + [p for p, _ in also_design]
             outcomes = outcomes + [o for _, o in also_design]
-            return score_design(measured, spaces, points, [gaps.simulated(o.good, peak_window) for o in outcomes],
+            return score_design(measured, spaces, points, [_features(o, peak_window) for o in outcomes],
                                 sum(len(o.failures) for o in outcomes), box, effect_params, seed)
 
         scored = scored_on(box, points, outcomes)
